@@ -1,0 +1,83 @@
+//! Matrix-free preconditioned conjugate gradient with Baraff–Witkin filtering.
+//!
+//! Solves `S A S x = S b` where `S` filters constrained directions out of every
+//! node (fixed nodes: all three; ground contacts: the normal). The operator is
+//! a closure that computes `q = A d` element by element; `A` is never stored.
+//!
+//! The preconditioner is a scalar per node (`inv_p`): the lumped mass for
+//! dynamics, which makes every iterate conserve linear and angular momentum
+//! of an isolated body (DESIGN.md §4), or the stiffness diagonal for statics.
+//! Fixed nodes have `inv_p = 0`, which filters them for free.
+//!
+//! The residual `r` is kept *unfiltered*: the iterates are the same as with a
+//! filtered residual (every inner product goes through `z = S P⁻¹ r`), and
+//! its constrained components are the constraint forces, which the ground
+//! uses to release nodes.
+
+use crate::math::{axpy, dot, scale, sqrt, Vec3};
+use crate::storage::NodeWork;
+
+/// What a CG solve did.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct CgOutcome {
+    /// Iterations run.
+    pub(crate) iterations: u32,
+    /// `sqrt(rᵀz / r₀ᵀz₀)`: the final residual relative to the initial one.
+    pub(crate) residual: f32,
+}
+
+/// Relative floor of `rᵀz` (f32 epsilon squared): iterating below it only
+/// produces round-off and, eventually, slow subnormal numbers.
+const FLOOR: f32 = f32::EPSILON * f32::EPSILON;
+
+/// Runs at most `max_iterations` CG iterations from `work.x` with `work.r =
+/// b − A x` already set. `project(node, v)` applies the filter `S` of a node;
+/// `apply(work)` must set every `work.q = A work.d`.
+pub(crate) fn solve(
+    work: &mut [NodeWork],
+    max_iterations: u32,
+    tolerance: f32,
+    project: impl Fn(usize, Vec3) -> Vec3,
+    mut apply: impl FnMut(&mut [NodeWork]),
+) -> CgOutcome {
+    let mut rz = 0.0f32;
+    for (i, w) in work.iter_mut().enumerate() {
+        let z = project(i, scale(w.r, w.inv_p));
+        w.d = z;
+        rz += dot(w.r, z);
+    }
+    let rz0 = rz;
+    if !(rz0 > 0.0 && rz0.is_finite()) {
+        return CgOutcome::default();
+    }
+    let stop = (tolerance * tolerance * rz0)
+        .max(FLOOR * rz0)
+        .max(f32::MIN_POSITIVE);
+    let mut iterations = 0;
+    while iterations < max_iterations && rz > stop {
+        apply(work);
+        let dq = work.iter().fold(0.0f32, |s, w| s + dot(w.d, w.q));
+        if !(dq > 0.0 && dq.is_finite()) {
+            break;
+        }
+        let alpha = rz / dq;
+        let mut rz_new = 0.0f32;
+        for (i, w) in work.iter_mut().enumerate() {
+            w.x = axpy(w.x, alpha, w.d);
+            w.r = axpy(w.r, -alpha, w.q);
+            let z = project(i, scale(w.r, w.inv_p));
+            w.q = z;
+            rz_new += dot(w.r, z);
+        }
+        iterations += 1;
+        let beta = rz_new / rz;
+        rz = rz_new;
+        for w in work.iter_mut() {
+            w.d = axpy(w.q, beta, w.d);
+        }
+    }
+    CgOutcome {
+        iterations,
+        residual: sqrt(rz.max(0.0) / rz0),
+    }
+}

@@ -1,0 +1,64 @@
+//! Diagnostics: energies, momenta and the internal forces, for checking the
+//! physical laws. None of this runs in the step.
+
+use crate::math::{add, axpy, cross, dot, scale, Vec3};
+use crate::pass;
+use crate::storage::Storage;
+use crate::Scene;
+
+impl<S: Storage> Scene<S> {
+    /// Kinetic energy `½ Σ m |v|²` (J).
+    #[must_use]
+    pub fn kinetic_energy(&self) -> f32 {
+        0.5 * self
+            .positions_masses_velocities()
+            .fold(0.0, |e, (_, m, v)| e + m * dot(v, v))
+    }
+
+    /// Linear momentum `Σ m v` (kg·m/s).
+    #[must_use]
+    pub fn momentum(&self) -> Vec3 {
+        self.positions_masses_velocities()
+            .fold([0.0; 3], |p, (_, m, v)| axpy(p, m, v))
+    }
+
+    /// Angular momentum about the origin `Σ x × m v` (kg·m²/s).
+    #[must_use]
+    pub fn angular_momentum(&self) -> Vec3 {
+        self.positions_masses_velocities()
+            .fold([0.0; 3], |l, (x, m, v)| add(l, scale(cross(x, v), m)))
+    }
+
+    fn positions_masses_velocities(&self) -> impl Iterator<Item = (Vec3, f32, Vec3)> + '_ {
+        (0..self.node_count())
+            .filter_map(|i| Some((self.position(i)?, self.mass(i)?, self.velocity(i)?)))
+    }
+
+    /// Elastic energy of the current shape with the current method (J),
+    /// `Σ ½ ε̃ᵀ D' ε̃` over the elements. Leaves the state untouched.
+    pub fn elastic_energy(&mut self) -> f32 {
+        let v = self.view();
+        let method = v.hdr.settings.method;
+        pass::forces::<false, false>(method, v.nodes, v.elems, |_, _, _| {}).energy
+    }
+
+    /// Internal elastic forces on every node (N) into `out` (its first
+    /// `node_count()` entries), with the current method. Leaves the state
+    /// untouched. Returns the number of inverted elements.
+    pub fn elastic_forces(&mut self, out: &mut [Vec3]) -> Result<u32, crate::Error> {
+        let v = self.view();
+        if out.len() < v.nodes.len() {
+            return Err(crate::Error::InvalidParameter { name: "out" });
+        }
+        for f in out.iter_mut() {
+            *f = [0.0; 3];
+        }
+        let method = v.hdr.settings.method;
+        let totals = pass::forces::<false, false>(method, v.nodes, v.elems, |i, f, _| {
+            if let Some(o) = out.get_mut(i) {
+                *o = add(*o, f);
+            }
+        });
+        Ok(totals.inverted)
+    }
+}

@@ -1,0 +1,93 @@
+//! Kernels written with a 3×3 displacement gradient `H`: the stiffness product
+//! of every method and the element forces of `Polar` and `Linear`.
+//!
+//! For isotropic `D` the product `Bᵀ D B` applied to nodal displacements `Δxᵢ`
+//! needs no explicit `B`: with the (6V₀-scaled) gradients `gᵢ` of the shape
+//! functions of nodes `b, c, d`,
+//!
+//! ```text
+//! H   = Σ_{i=b,c,d} (Δxᵢ − Δx_a) gᵢᵀ              displacement gradient · 6V₀
+//! σ   = λ' tr(H) I + μ' (H + Hᵀ)                  stress · 36V₀² / V₀ (λ', μ' = λ, μ / 36V₀)
+//! Δfᵢ = −σ gᵢ  (i = b, c, d),   Δf_a = −(Δf_b + Δf_c + Δf_d)
+//! ```
+//!
+//! This is exactly `−V₀ Bᵀ D B Δx` with `B = B̃ / (6V₀)`: the strain in Voigt
+//! order `[εxx, εyy, εzz, γxy, γyz, γzx]` is `(H₀₀, H₁₁, H₂₂, H₀₁+H₁₀, H₁₂+H₂₁,
+//! H₂₀+H₀₂)` and `Bᵢᵀ σ_Voigt = σ gᵢ`. About 27 + 27 + 7 multiplications.
+
+use crate::math::{sub, Vec3};
+
+/// A symmetric 3×3 stress `[sxx, syy, szz, sxy, syz, szx]` (scaled as above).
+pub(crate) type Sym = [f32; 6];
+
+/// `H = Σᵢ dᵢ gᵢᵀ` for the three edge vectors `d` and gradients `g` (rows of H
+/// are components of `d`).
+#[inline(always)]
+#[must_use]
+pub(crate) fn grad_h(d: &[Vec3; 3], g: &[Vec3; 3]) -> [[f32; 3]; 3] {
+    let mut h = [[0.0f32; 3]; 3];
+    for (r, row) in h.iter_mut().enumerate() {
+        for (c, hrc) in row.iter_mut().enumerate() {
+            *hrc = d[0][r] * g[0][c] + d[1][r] * g[1][c] + d[2][r] * g[2][c];
+        }
+    }
+    h
+}
+
+/// Isotropic stress of the symmetric part of `H`:
+/// `σ = λ' tr(H) I + μ' (H + Hᵀ)`, with `lame = [λ', μ']`.
+#[inline(always)]
+#[must_use]
+pub(crate) fn stress(h: &[[f32; 3]; 3], lame: [f32; 2]) -> Sym {
+    let [l, m] = lame;
+    let lt = l * (h[0][0] + h[1][1] + h[2][2]);
+    let m2 = m + m;
+    [
+        lt + m2 * h[0][0],
+        lt + m2 * h[1][1],
+        lt + m2 * h[2][2],
+        m * (h[0][1] + h[1][0]),
+        m * (h[1][2] + h[2][1]),
+        m * (h[2][0] + h[0][2]),
+    ]
+}
+
+/// `−σ g` for a symmetric `σ`.
+#[inline(always)]
+#[must_use]
+pub(crate) fn neg_stress_times(s: &Sym, g: Vec3) -> Vec3 {
+    [
+        -(s[0] * g[0] + s[3] * g[1] + s[5] * g[2]),
+        -(s[3] * g[0] + s[1] * g[1] + s[4] * g[2]),
+        -(s[5] * g[0] + s[4] * g[1] + s[2] * g[2]),
+    ]
+}
+
+/// Energy `½ σ : ε` of the stress `s` and the gradient `h` it came from
+/// (J, when `s` comes from [`stress`] with `[λ', μ']`).
+#[cfg(any(feature = "polar", feature = "linear"))]
+#[inline(always)]
+#[must_use]
+pub(crate) fn energy(s: &Sym, h: &[[f32; 3]; 3]) -> f32 {
+    0.5 * (s[0] * h[0][0]
+        + s[1] * h[1][1]
+        + s[2] * h[2][2]
+        + s[3] * (h[0][1] + h[1][0])
+        + s[4] * (h[1][2] + h[2][1])
+        + s[5] * (h[2][0] + h[0][2]))
+}
+
+/// The stiffness product of one element: `−K Δx` for the nodes `a, b, c, d`
+/// given the node vectors `x` and world gradients `g` of `b, c, d`.
+/// Returns the contributions to `b, c, d`; node `a` gets minus their sum.
+#[inline(always)]
+#[must_use]
+pub(crate) fn stiffness_product(x: &[Vec3; 4], g: &[Vec3; 3], lame: [f32; 2]) -> [Vec3; 3] {
+    let d = [sub(x[1], x[0]), sub(x[2], x[0]), sub(x[3], x[0])];
+    let s = stress(&grad_h(&d, g), lame);
+    [
+        neg_stress_times(&s, g[0]),
+        neg_stress_times(&s, g[1]),
+        neg_stress_times(&s, g[2]),
+    ]
+}

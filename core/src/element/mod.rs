@@ -1,0 +1,194 @@
+//! Tetrahedral elements: the per-element storage and the force kernel of each
+//! method. Each method is a cargo feature, so a firmware image that uses one
+//! method carries only that kernel.
+
+pub(crate) mod hform;
+#[cfg(feature = "linear")]
+mod linear;
+#[cfg(feature = "polar")]
+pub(crate) mod polar;
+pub(crate) mod qr;
+
+use crate::math::{add, Vec3};
+
+#[cfg(not(any(
+    feature = "qr",
+    feature = "polar",
+    feature = "linear",
+    feature = "qr-rest-b"
+)))]
+compile_error!(
+    "corofem: enable at least one element method feature: `qr`, `polar`, `linear` or `qr-rest-b`"
+);
+
+/// How an element separates rotation from deformation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Method {
+    /// The paper's method: QR frame, `B` recomputed from the current shape every
+    /// step (no ghost forces, no ghost torques). The default.
+    #[cfg(feature = "qr")]
+    Qr,
+    /// Polar decomposition of the deformation gradient with `det R = +1`, also
+    /// for inverted elements; about 30% more work than `Qr`.
+    #[cfg(feature = "polar")]
+    Polar,
+    /// No rotation: small-displacement linear elasticity (a rotated body grows).
+    #[cfg(feature = "linear")]
+    Linear,
+    /// QR rotation with `B` frozen at rest, as SOFA's default: shows ghost torques.
+    #[cfg(feature = "qr-rest-b")]
+    QrRestB,
+}
+
+impl Default for Method {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
+impl Method {
+    /// `Qr` when compiled in, otherwise the first compiled method.
+    #[cfg(feature = "qr")]
+    pub const DEFAULT: Method = Method::Qr;
+    /// `Qr` when compiled in, otherwise the first compiled method.
+    #[cfg(all(not(feature = "qr"), feature = "polar"))]
+    pub const DEFAULT: Method = Method::Polar;
+    /// `Qr` when compiled in, otherwise the first compiled method.
+    #[cfg(all(not(feature = "qr"), not(feature = "polar"), feature = "linear"))]
+    pub const DEFAULT: Method = Method::Linear;
+    /// `Qr` when compiled in, otherwise the first compiled method.
+    #[cfg(all(
+        not(feature = "qr"),
+        not(feature = "polar"),
+        not(feature = "linear"),
+        feature = "qr-rest-b"
+    ))]
+    pub const DEFAULT: Method = Method::QrRestB;
+
+    /// Every method compiled into this build, in a fixed order.
+    pub const ALL: &'static [Method] = &[
+        #[cfg(feature = "qr")]
+        Method::Qr,
+        #[cfg(feature = "polar")]
+        Method::Polar,
+        #[cfg(feature = "linear")]
+        Method::Linear,
+        #[cfg(feature = "qr-rest-b")]
+        Method::QrRestB,
+    ];
+
+    /// The scene-file name: `"qr"`, `"polar"`, `"linear"` or `"qr-rest-b"`.
+    #[must_use]
+    pub const fn name(self) -> &'static str {
+        match self {
+            #[cfg(feature = "qr")]
+            Method::Qr => "qr",
+            #[cfg(feature = "polar")]
+            Method::Polar => "polar",
+            #[cfg(feature = "linear")]
+            Method::Linear => "linear",
+            #[cfg(feature = "qr-rest-b")]
+            Method::QrRestB => "qr-rest-b",
+        }
+    }
+
+    /// The method with this scene-file name, if it is compiled in.
+    #[must_use]
+    pub fn from_name(name: &str) -> Option<Method> {
+        Method::ALL.iter().copied().find(|m| m.name() == name)
+    }
+}
+
+/// What a force kernel returns for one element.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct ElementForces {
+    /// World forces on `b, c, d` (N); node `a` gets minus their sum, which
+    /// makes the element's net force zero exactly.
+    pub(crate) f: [Vec3; 3],
+    /// World gradients of the shape functions of `b, c, d`, scaled by `6V₀`
+    /// (m²), for the stiffness product.
+    pub(crate) grad: [Vec3; 3],
+    /// Elastic energy (J).
+    pub(crate) energy: f32,
+    /// Current signed volume is negative.
+    pub(crate) inverted: bool,
+}
+
+/// Per-element storage (80 bytes with `Qr` only; +36 with `polar` or
+/// `linear` for the rest world gradients; +16 with `polar` for the rotation).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Element {
+    /// Node indices `a, b, c, d`.
+    pub(crate) nodes: [u16; 4],
+    /// Rest local coordinates `[xb, xc, yc, xd, yd, zd]` in the QR frame (m).
+    pub(crate) rest: qr::Local,
+    /// Young's modulus of this element (Pa).
+    pub(crate) young: f32,
+    /// `[λ', μ'] = [λ, μ] / (36 V₀)` (Pa/m³).
+    pub(crate) lame: [f32; 2],
+    /// World gradients of `b, c, d` from the last force evaluation (m²).
+    pub(crate) grad: [Vec3; 3],
+    /// Rest world gradients of `b, c, d` (m²).
+    #[cfg(any(feature = "polar", feature = "linear"))]
+    pub(crate) rest_grad: [Vec3; 3],
+    /// Polar rotation (quaternion `w, x, y, z`), the warm start of the next step.
+    #[cfg(feature = "polar")]
+    pub(crate) rot: [f32; 4],
+}
+
+impl Element {
+    /// An unused slot.
+    pub const EMPTY: Self = Self {
+        nodes: [0; 4],
+        rest: [0.0; 6],
+        young: 0.0,
+        lame: [0.0; 2],
+        grad: [[0.0; 3]; 3],
+        #[cfg(any(feature = "polar", feature = "linear"))]
+        rest_grad: [[0.0; 3]; 3],
+        #[cfg(feature = "polar")]
+        rot: polar::IDENTITY,
+    };
+
+    /// `6 V₀` (m³), from the rest local coordinates: `xb·yc·zd`.
+    #[must_use]
+    pub(crate) fn six_v0(&self) -> f32 {
+        self.rest[0] * self.rest[2] * self.rest[5]
+    }
+}
+
+impl Default for Element {
+    fn default() -> Self {
+        Self::EMPTY
+    }
+}
+
+/// Evaluates the forces of one element with `method`, given its rest edges
+/// `b−a, c−a, d−a` and the displacement differences `uᵢ − u_a` (m). The
+/// current edges are formed as rest edge + displacement difference, which
+/// keeps full f32 accuracy far from the origin.
+#[inline(always)]
+#[must_use]
+pub(crate) fn forces(
+    method: Method,
+    el: &mut Element,
+    rest: &[Vec3; 3],
+    du: &[Vec3; 3],
+) -> ElementForces {
+    let cur = [
+        add(rest[0], du[0]),
+        add(rest[1], du[1]),
+        add(rest[2], du[2]),
+    ];
+    match method {
+        #[cfg(feature = "qr")]
+        Method::Qr => qr::forces::<true>(cur[0], cur[1], cur[2], &el.rest, el.lame),
+        #[cfg(feature = "qr-rest-b")]
+        Method::QrRestB => qr::forces::<false>(cur[0], cur[1], cur[2], &el.rest, el.lame),
+        #[cfg(feature = "polar")]
+        Method::Polar => polar::forces(&cur, rest, &el.rest_grad, el.lame, &mut el.rot),
+        #[cfg(feature = "linear")]
+        Method::Linear => linear::forces(du, &cur, &el.rest_grad, el.lame),
+    }
+}

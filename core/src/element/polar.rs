@@ -1,0 +1,278 @@
+//! The `Polar` method: rotation from the polar decomposition of the
+//! deformation gradient, with `det R = +1` also for inverted elements.
+//!
+//! `R` is the rotation closest to `F` — it maximises `tr(Rᵀ F)` over proper
+//! rotations. For `det F > 0` that is the polar factor; for an inverted element
+//! it is `U diag(1, 1, −1) Vᵀ` (the smallest singular value changes sign), so
+//! `R` never becomes a reflection and the element is pushed back through itself.
+//!
+//! The maximiser is found by Newton's method on SO(3), warm-started from the
+//! previous step's rotation (stored as a quaternion). With `M = Rᵀ F` and the
+//! right perturbation `R ← R exp([θ]×)`,
+//!
+//! ```text
+//! tr(Rᵀ F)(θ) ≈ tr M − θ·w − ½ θᵀ (tr(M) I − sym M) θ
+//! w = (M₁₂ − M₂₁, M₂₀ − M₀₂, M₀₁ − M₁₀)        (zero when M is symmetric)
+//! θ = −(tr(M) I − sym M)⁻¹ w                    (Newton step)
+//! ```
+//!
+//! At the maximum the Hessian `tr(M) I − sym M` is positive definite; when it
+//! is not (far from the solution, or stuck at a saddle or the minimum where
+//! `w = 0` too), a half turn about a frame axis that increases `tr(Rᵀ F)` is
+//! taken if one exists, else a gradient step `θ = −w / ‖M‖`. Every update
+//! increases the objective, so the search cannot cycle.
+//! The quaternion update uses `(1, θ/2)` normalised, which needs no trigonometry.
+//! Converged `R` makes `Rᵀ F` symmetric, which is why the polar method is free
+//! of ghost torques even with rest gradients.
+
+use super::hform::{energy, grad_h, neg_stress_times, stress};
+use super::ElementForces;
+use crate::math::{det3, dot, mat_vec, solve3, sqrt, Mat3, Vec3};
+
+/// Most Newton iterations per element and step (warm-started, 1–2 are typical).
+const MAX_ITERATIONS: usize = 8;
+
+/// One update of the rotation search.
+enum Step {
+    /// Rotate by the rotation vector `θ` (applied as the quaternion `(1, θ/2)`).
+    Turn(Vec3),
+    /// Rotate by π about frame axis `k`.
+    HalfTurn(usize),
+}
+
+/// Identity rotation as a quaternion `(w, x, y, z)`.
+pub(crate) const IDENTITY: [f32; 4] = [1.0, 0.0, 0.0, 0.0];
+
+/// Rotation matrix (rows) of the unit quaternion `q = (w, x, y, z)`.
+#[inline]
+#[must_use]
+pub(crate) fn rotation(q: [f32; 4]) -> Mat3 {
+    let [w, x, y, z] = q;
+    let (xx, yy, zz) = (x * x, y * y, z * z);
+    let (xy, xz, yz) = (x * y, x * z, y * z);
+    let (wx, wy, wz) = (w * x, w * y, w * z);
+    [
+        [1.0 - 2.0 * (yy + zz), 2.0 * (xy - wz), 2.0 * (xz + wy)],
+        [2.0 * (xy + wz), 1.0 - 2.0 * (xx + zz), 2.0 * (yz - wx)],
+        [2.0 * (xz - wy), 2.0 * (yz + wx), 1.0 - 2.0 * (xx + yy)],
+    ]
+}
+
+/// `Rᵀ F` for rows-stored matrices.
+#[inline]
+fn rt_times(r: &Mat3, f: &Mat3) -> Mat3 {
+    let mut m = [[0.0f32; 3]; 3];
+    for (i, row) in m.iter_mut().enumerate() {
+        for (j, mij) in row.iter_mut().enumerate() {
+            *mij = r[0][i] * f[0][j] + r[1][i] * f[1][j] + r[2][i] * f[2][j];
+        }
+    }
+    m
+}
+
+/// Updates `q` in place to the rotation closest to `f`; returns `Rᵀ F` for the
+/// final rotation (the caller needs it for the strain).
+#[must_use]
+pub(crate) fn closest_rotation(f: &Mat3, q: &mut [f32; 4]) -> (Mat3, Mat3) {
+    let mut r = rotation(*q);
+    let mut m = rt_times(&r, f);
+    let norm2 = f.iter().flatten().fold(0.0f32, |s, v| s + v * v);
+    if !(norm2 >= f32::MIN_POSITIVE && norm2.is_finite()) {
+        return (r, m);
+    }
+    let norm = sqrt(norm2);
+    // Stop at the f32 noise floor of forming M (a few ulps of ‖F‖) or when the
+    // skew part stops shrinking.
+    let floor2 = (8.0 * f32::EPSILON * norm) * (8.0 * f32::EPSILON * norm);
+    let mut last2 = f32::INFINITY;
+    for _ in 0..MAX_ITERATIONS {
+        let w = [m[1][2] - m[2][1], m[2][0] - m[0][2], m[0][1] - m[1][0]];
+        let w2 = dot(w, w);
+        let tr = m[0][0] + m[1][1] + m[2][2];
+        let h = [
+            [
+                tr - m[0][0],
+                -0.5 * (m[0][1] + m[1][0]),
+                -0.5 * (m[0][2] + m[2][0]),
+            ],
+            [
+                -0.5 * (m[0][1] + m[1][0]),
+                tr - m[1][1],
+                -0.5 * (m[1][2] + m[2][1]),
+            ],
+            [
+                -0.5 * (m[0][2] + m[2][0]),
+                -0.5 * (m[1][2] + m[2][1]),
+                tr - m[2][2],
+            ],
+        ];
+        let minor2 = h[0][0] * h[1][1] - h[0][1] * h[0][1];
+        let concave = h[0][0] > 0.0 && minor2 > 0.0 && det3(h[0], h[1], h[2]) > 0.0;
+        let step = if concave {
+            // Near the maximum: Newton, until the skew part reaches the noise
+            // floor or stops shrinking.
+            if w2 <= floor2 || w2 >= 0.25 * last2 || !w2.is_finite() {
+                break;
+            }
+            last2 = w2;
+            match solve3(&h, w) {
+                Some(t) => Step::Turn([-t[0], -t[1], -t[2]]),
+                None => Step::Turn([-w[0] / norm, -w[1] / norm, -w[2] / norm]),
+            }
+        } else {
+            // Far from it, maybe at a saddle or the minimum: a half turn about
+            // a frame axis `k` changes tr(RᵀF) to 2 M_kk − tr M; take the best
+            // one if it gains, else a gradient step.
+            last2 = f32::INFINITY;
+            let (k, best) = (0..3)
+                .map(|k| (k, 2.0 * m[k][k] - tr))
+                .fold((0, f32::NEG_INFINITY), |a, b| if b.1 > a.1 { b } else { a });
+            if best > tr + 8.0 * f32::EPSILON * norm {
+                Step::HalfTurn(k)
+            } else if w2 > floor2 && w2.is_finite() {
+                Step::Turn([-w[0] / norm, -w[1] / norm, -w[2] / norm])
+            } else {
+                break;
+            }
+        };
+        // q ← q ⊗ p with p = (1, θ/2) (normalised below) or a half turn (0, e_k).
+        let p = match step {
+            Step::Turn(t) => [1.0, 0.5 * t[0], 0.5 * t[1], 0.5 * t[2]],
+            Step::HalfTurn(k) => {
+                let mut p = [0.0; 4];
+                if let Some(pk) = p.get_mut(k + 1) {
+                    *pk = 1.0;
+                }
+                p
+            }
+        };
+        let [qw, qx, qy, qz] = *q;
+        let n = [
+            qw * p[0] - (qx * p[1] + qy * p[2] + qz * p[3]),
+            qx * p[0] + qw * p[1] + (qy * p[3] - qz * p[2]),
+            qy * p[0] + qw * p[2] + (qz * p[1] - qx * p[3]),
+            qz * p[0] + qw * p[3] + (qx * p[2] - qy * p[1]),
+        ];
+        let len2 = n[0] * n[0] + n[1] * n[1] + n[2] * n[2] + n[3] * n[3];
+        if !(len2 >= f32::MIN_POSITIVE && len2.is_finite()) {
+            break;
+        }
+        let inv = 1.0 / sqrt(len2);
+        *q = [n[0] * inv, n[1] * inv, n[2] * inv, n[3] * inv];
+        r = rotation(*q);
+        m = rt_times(&r, f);
+    }
+    (r, m)
+}
+
+/// Element forces of the polar method.
+///
+/// `cur` and `rest` are the current and rest edges `b−a, c−a, d−a` (m), `g0`
+/// the rest world gradients (×6V₀, m²), `q` the warm-start rotation.
+///
+/// ```text
+/// F̃  = Σ eᵢ g0ᵢᵀ,   F̃₀ = Σ rᵢ g0ᵢᵀ      (both 6V₀ F; F̃₀ = 6V₀ I up to round-off)
+/// R  = closest rotation to F̃
+/// H̃  = Rᵀ F̃ − F̃₀                         (unrotated displacement gradient)
+/// fᵢ = R (−σ(H̃) g0ᵢ),   gᵢ = R g0ᵢ
+/// ```
+#[inline]
+#[must_use]
+pub(crate) fn forces(
+    cur: &[Vec3; 3],
+    rest: &[Vec3; 3],
+    g0: &[Vec3; 3],
+    lame: [f32; 2],
+    q: &mut [f32; 4],
+) -> ElementForces {
+    let f = grad_h(cur, g0);
+    let f0 = grad_h(rest, g0);
+    let (r, m) = closest_rotation(&f, q);
+    let mut h = m;
+    for (hr, f0r) in h.iter_mut().zip(f0.iter()) {
+        for (hij, f0ij) in hr.iter_mut().zip(f0r.iter()) {
+            *hij -= *f0ij;
+        }
+    }
+    let s = stress(&h, lame);
+    let local = [
+        neg_stress_times(&s, g0[0]),
+        neg_stress_times(&s, g0[1]),
+        neg_stress_times(&s, g0[2]),
+    ];
+    ElementForces {
+        f: [
+            mat_vec(&r, local[0]),
+            mat_vec(&r, local[1]),
+            mat_vec(&r, local[2]),
+        ],
+        grad: [mat_vec(&r, g0[0]), mat_vec(&r, g0[1]), mat_vec(&r, g0[2])],
+        energy: energy(&s, &h),
+        inverted: det3(cur[0], cur[1], cur[2]) < 0.0,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn mat_mul(a: &Mat3, b: &Mat3) -> Mat3 {
+        let mut m = [[0.0f32; 3]; 3];
+        for i in 0..3 {
+            for j in 0..3 {
+                m[i][j] = a[i][0] * b[0][j] + a[i][1] * b[1][j] + a[i][2] * b[2][j];
+            }
+        }
+        m
+    }
+
+    fn assert_rotation(r: &Mat3) {
+        let rtr = rt_times(r, r);
+        for i in 0..3 {
+            for j in 0..3 {
+                // f32 round-off of a normalised quaternion.
+                assert!((rtr[i][j] - if i == j { 1.0 } else { 0.0 }).abs() < 1e-5);
+            }
+        }
+        assert!(det3(r[0], r[1], r[2]) > 0.0);
+    }
+
+    #[test]
+    fn recovers_a_rotation_times_a_stretch() {
+        let mut q0 = [0.9f32, 0.3, -0.2, 0.25];
+        let n = q0.iter().map(|v| v * v).sum::<f32>().sqrt();
+        q0.iter_mut().for_each(|v| *v /= n);
+        let rot = rotation(q0);
+        let s = [[1.3, 0.1, 0.0], [0.1, 0.8, 0.05], [0.0, 0.05, 1.1]];
+        let f = mat_mul(&rot, &s);
+        let mut q = IDENTITY;
+        let (r, m) = closest_rotation(&f, &mut q);
+        assert_rotation(&r);
+        for i in 0..3 {
+            for j in 0..3 {
+                assert!((r[i][j] - rot[i][j]).abs() < 1e-5); // f32 round-off
+                assert!((m[i][j] - m[j][i]).abs() < 1e-5); // Rᵀ F symmetric
+            }
+        }
+    }
+
+    #[test]
+    fn inverted_gradient_gives_a_proper_rotation() {
+        // F = diag(1, 1, −0.5): the closest rotation is the identity.
+        let f = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, -0.5]];
+        let mut q = [0.0, 0.0, 0.0, 1.0]; // start 180° away about z
+        let (r, _) = closest_rotation(&f, &mut q);
+        assert_rotation(&r);
+        // tr(RᵀF) is maximal (1.5) at the identity.
+        let tr = r[0][0] * f[0][0] + r[1][1] * f[1][1] + r[2][2] * f[2][2];
+        assert!(tr > 1.5 - 1e-4, "tr = {tr}");
+    }
+
+    #[test]
+    fn zero_gradient_keeps_the_warm_start() {
+        let mut q = IDENTITY;
+        let (r, _) = closest_rotation(&[[0.0; 3]; 3], &mut q);
+        assert_eq!(q, IDENTITY);
+        assert_rotation(&r);
+    }
+}

@@ -1,0 +1,266 @@
+//! The QR frame of Nesme, Payan and Faure (2005) and the element forces of
+//! the `Qr` and `QrRestB` methods.
+//!
+//! Frame from the current edges `ab, ac, ad` (rows of `R`, world → local):
+//!
+//! ```text
+//! e1 = ab / |ab|,   e3 = (e1 × ac) / |e1 × ac|,   e2 = e3 × e1
+//! ```
+//!
+//! In that frame `a = 0`, `b = (xb, 0, 0)`, `c = (xc, yc, 0)`, `d = (xd, yd, zd)`
+//! with `xb > 0`, `yc ≥ 0`, and `6V = xb·yc·zd`: the element is inverted
+//! exactly when `zd < 0`.
+
+use super::hform::Sym;
+use super::ElementForces;
+use crate::math::{cross, dot, normalize, scale, Vec3};
+
+/// Local coordinates `[xb, xc, yc, xd, yd, zd]` of `b, c, d` in the QR frame, m.
+pub(crate) type Local = [f32; 6];
+
+/// The QR frame (rows `e1, e2, e3`) and the local coordinates of one element.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Frame {
+    pub(crate) e: [Vec3; 3],
+    pub(crate) local: Local,
+}
+
+/// Builds the QR frame of the edges `ab, ac, ad` (m).
+///
+/// Never fails: a collapsed edge or a flat triangle `abc` falls back to a
+/// deterministic choice (first `ad` instead of `ac`, then a coordinate axis),
+/// so forces stay finite for any input, including fully crushed elements.
+#[inline(always)]
+#[must_use]
+pub(crate) fn frame(ab: Vec3, ac: Vec3, ad: Vec3) -> Frame {
+    let e1 = match normalize(ab) {
+        Some(e) => e,
+        None => match normalize(ac) {
+            Some(e) => e,
+            None => [1.0, 0.0, 0.0],
+        },
+    };
+    let e3 = match normalize(cross(e1, ac)) {
+        Some(e) => e,
+        None => match normalize(cross(e1, ad)) {
+            Some(e) => e,
+            None => any_perpendicular(e1),
+        },
+    };
+    let e2 = cross(e3, e1);
+    Frame {
+        e: [e1, e2, e3],
+        local: [
+            dot(e1, ab),
+            dot(e1, ac),
+            dot(e2, ac),
+            dot(e1, ad),
+            dot(e2, ad),
+            dot(e3, ad),
+        ],
+    }
+}
+
+/// A unit vector perpendicular to the unit vector `e`: `e` crossed with the
+/// coordinate axis least aligned with it.
+fn any_perpendicular(e: Vec3) -> Vec3 {
+    let (ax, ay, az) = (e[0].abs(), e[1].abs(), e[2].abs());
+    let axis = if ax <= ay && ax <= az {
+        [1.0, 0.0, 0.0]
+    } else if ay <= az {
+        [0.0, 1.0, 0.0]
+    } else {
+        [0.0, 0.0, 1.0]
+    };
+    match normalize(cross(e, axis)) {
+        Some(n) => n,
+        None => [0.0, 0.0, 1.0],
+    }
+}
+
+/// Shape-function gradients of `b, c, d` in the local frame, scaled by `6V`:
+/// `[[βb, γb, δb], [βc, γc, δc], [βd, γd, δd]]` (m²).
+///
+/// The corrected table of DESIGN.md §2 (the paper prints `γb`, `δb`, `δd` with
+/// the wrong sign). Seven products; `βc = βd = γd = 0` by construction and node
+/// `a` is minus the sum of the others (partition of unity):
+///
+/// ```text
+/// βb =  yc·zd   γb = −xc·zd   δb = xc·yd − yc·xd
+///               γc =  xb·zd   δc = −xb·yd
+///                             δd =  xb·yc
+/// ```
+#[inline(always)]
+#[must_use]
+pub(crate) fn local_gradients(l: &Local) -> [Vec3; 3] {
+    let [xb, xc, yc, xd, yd, zd] = *l;
+    [
+        [yc * zd, -(xc * zd), xc * yd - yc * xd],
+        [0.0, xb * zd, -(xb * yd)],
+        [0.0, 0.0, xb * yc],
+    ]
+}
+
+/// Element forces with the QR frame. `rest` holds the rest local coordinates
+/// (computed by [`frame`] from the rest edges, so the rest shape is an exact
+/// equilibrium in f32); `lame = [λ', μ'] = [λ, μ] / (36 V₀)`.
+///
+/// With `CURRENT_B = true` (`Qr`) the gradients come from the current shape,
+/// which makes the net torque vanish; with `false` (`QrRestB`, SOFA's default)
+/// they are frozen at rest and ghost torques appear.
+///
+/// Flops: frame ≈ 30, gradients 7, strain 10, stress 7, local forces 18,
+/// rotation to world 27, world gradients 18.
+#[inline(always)]
+#[must_use]
+pub(crate) fn forces<const CURRENT_B: bool>(
+    ab: Vec3,
+    ac: Vec3,
+    ad: Vec3,
+    rest: &Local,
+    lame: [f32; 2],
+) -> ElementForces {
+    let fr = frame(ab, ac, ad);
+    let l = fr.local;
+    // Local displacement u = current − rest local coordinates. By construction
+    // u_a = 0, u_b = (ubx, 0, 0), u_c = (ucx, ucy, 0).
+    let ubx = l[0] - rest[0];
+    let ucx = l[1] - rest[1];
+    let ucy = l[2] - rest[2];
+    let udx = l[3] - rest[3];
+    let udy = l[4] - rest[4];
+    let udz = l[5] - rest[5];
+    let g = if CURRENT_B {
+        local_gradients(&l)
+    } else {
+        local_gradients(rest)
+    };
+    let ([bb, gb, db], [_, gc, dc], [_, _, dd]) = (g[0], g[1], g[2]);
+    // Strain ε̃ = B̃ u (Voigt, engineering shear) with the zero entries dropped.
+    let exx = bb * ubx;
+    let eyy = gc * ucy;
+    let ezz = dd * udz;
+    let gxy = gb * ubx + gc * ucx;
+    let gyz = dc * ucy + dd * udy;
+    let gzx = db * ubx + dc * ucx + dd * udx;
+    // Stress σ̃ = D' ε̃.
+    let [lam, mu] = lame;
+    let lt = lam * (exx + eyy + ezz);
+    let m2 = mu + mu;
+    let s: Sym = [
+        lt + m2 * exx,
+        lt + m2 * eyy,
+        lt + m2 * ezz,
+        mu * gxy,
+        mu * gyz,
+        mu * gzx,
+    ];
+    let energy =
+        0.5 * (s[0] * exx + s[1] * eyy + s[2] * ezz + s[3] * gxy + s[4] * gyz + s[5] * gzx);
+    // Local forces fᵢ = −B̃ᵢᵀ σ̃ with B̃ᵢᵀσ = (βσxx + γσxy + δσzx, γσyy + βσxy + δσyz, δσzz + γσyz + βσzx).
+    let fb = [
+        -(bb * s[0] + gb * s[3] + db * s[5]),
+        -(gb * s[1] + bb * s[3] + db * s[4]),
+        -(db * s[2] + gb * s[4] + bb * s[5]),
+    ];
+    let fc = [
+        -(gc * s[3] + dc * s[5]),
+        -(gc * s[1] + dc * s[4]),
+        -(dc * s[2] + gc * s[4]),
+    ];
+    let fd = [-(dd * s[5]), -(dd * s[4]), -(dd * s[2])];
+    // Back to world: Rᵀ f = fx e1 + fy e2 + fz e3.
+    let [e1, e2, e3] = fr.e;
+    let to_world = |f: Vec3| {
+        [
+            f[0] * e1[0] + f[1] * e2[0] + f[2] * e3[0],
+            f[0] * e1[1] + f[1] * e2[1] + f[2] * e3[1],
+            f[0] * e1[2] + f[1] * e2[2] + f[2] * e3[2],
+        ]
+    };
+    // World gradients gᵢ = Rᵀ (βᵢ, γᵢ, δᵢ), skipping the zero entries.
+    let grad = [
+        to_world(g[0]),
+        [
+            gc * e2[0] + dc * e3[0],
+            gc * e2[1] + dc * e3[1],
+            gc * e2[2] + dc * e3[2],
+        ],
+        scale(e3, dd),
+    ];
+    ElementForces {
+        f: [to_world(fb), to_world(fc), to_world(fd)],
+        grad,
+        energy,
+        inverted: l[5] < 0.0,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::sub;
+
+    const A: Vec3 = [0.1, -0.2, 0.05];
+    const B: Vec3 = [1.3, 0.1, -0.2];
+    const C: Vec3 = [0.2, 1.1, 0.3];
+    const D: Vec3 = [0.4, 0.3, 1.2];
+
+    #[test]
+    fn frame_is_orthonormal_and_local_coordinates_reproduce_edges() {
+        let (ab, ac, ad) = (sub(B, A), sub(C, A), sub(D, A));
+        let f = frame(ab, ac, ad);
+        for i in 0..3 {
+            for j in 0..3 {
+                let want = if i == j { 1.0 } else { 0.0 };
+                // f32 round-off of a normalisation.
+                assert!((dot(f.e[i], f.e[j]) - want).abs() < 1e-6);
+            }
+        }
+        let [xb, xc, yc, xd, yd, zd] = f.local;
+        assert!(xb > 0.0 && yc >= 0.0 && zd > 0.0);
+        // 6V = det[ab, ac, ad].
+        let six_v = crate::math::det3(ab, ac, ad);
+        assert!((xb * yc * zd - six_v).abs() < 1e-5 * six_v.abs());
+        let _ = (xc, xd, yd);
+    }
+
+    #[test]
+    fn gradients_match_a_symbolic_derivation() {
+        // The gradient of the linear shape function Nᵢ is the row i of the
+        // inverse of the local edge matrix; 6V·∇N must match the table.
+        let f = frame(sub(B, A), sub(C, A), sub(D, A));
+        let [xb, xc, yc, xd, yd, zd] = f.local;
+        let g = local_gradients(&f.local);
+        let six_v = xb * yc * zd;
+        // Check ∇Nᵢ · (xⱼ − x_a) = δᵢⱼ for j = b, c, d.
+        let pts = [[xb, 0.0, 0.0], [xc, yc, 0.0], [xd, yd, zd]];
+        for i in 0..3 {
+            for j in 0..3 {
+                let want = if i == j { six_v } else { 0.0 };
+                assert!((dot(g[i], pts[j]) - want).abs() < 1e-5); // f32 round-off, O(1) entries
+            }
+        }
+    }
+
+    #[test]
+    fn rest_shape_is_an_exact_equilibrium() {
+        let (ab, ac, ad) = (sub(B, A), sub(C, A), sub(D, A));
+        let rest = frame(ab, ac, ad).local;
+        let out = forces::<true>(ab, ac, ad, &rest, [1.0e5, 2.0e5]);
+        assert_eq!(out.f, [[0.0; 3]; 3]);
+        assert_eq!(out.energy, 0.0);
+    }
+
+    #[test]
+    fn degenerate_input_stays_finite() {
+        let z = [0.0; 3];
+        let rest = frame(sub(B, A), sub(C, A), sub(D, A)).local;
+        for (ab, ac, ad) in [(z, z, z), (B, B, B), (B, scale(B, 2.0), z), (z, C, D)] {
+            let out = forces::<true>(ab, ac, ad, &rest, [1.0, 1.0]);
+            for v in out.f.iter().chain(out.grad.iter()) {
+                assert!(crate::math::is_finite3(*v));
+            }
+        }
+    }
+}

@@ -1,0 +1,151 @@
+//! Unilateral ground contact: nodes stay on the side `n·x ≥ offset` of a plane.
+//!
+//! Each step, a node that touches or is below the plane and is not moving
+//! away is *held*: its normal velocity change is prescribed so that it ends
+//! the step on the plane, and Baraff–Witkin filtering removes the normal from
+//! the CG directions (an exact constraint, no penalty spring, so it is stable
+//! at any time step). After the solve, the unfiltered residual gives each held
+//! node's contact force; a node the plane would have to *pull* is released for
+//! the next step. Nodes that were free but end below the plane are projected
+//! onto it and lose their inward normal velocity (a perfectly inelastic,
+//! frictionless contact).
+
+use crate::math::{axpy, dot, is_finite3, normalize, Vec3};
+
+/// A ground plane: points with `normal · x ≥ offset` are outside it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Plane {
+    /// Outward normal (any length > 0; normalised when set).
+    pub normal: Vec3,
+    /// Offset along the normal (m).
+    pub offset: f32,
+}
+
+impl Plane {
+    /// The ground `z ≥ 0`.
+    pub const Z_UP: Self = Self {
+        normal: [0.0, 0.0, 1.0],
+        offset: 0.0,
+    };
+
+    /// The same plane with a unit normal, or `None` if it is not finite or the
+    /// normal is zero. The offset is rescaled so the plane does not move.
+    #[must_use]
+    pub fn normalized(&self) -> Option<Plane> {
+        if !is_finite3(self.normal) || !self.offset.is_finite() {
+            return None;
+        }
+        let len2 = dot(self.normal, self.normal);
+        let n = normalize(self.normal)?;
+        let offset = self.offset / crate::math::sqrt(len2);
+        offset.is_finite().then_some(Plane { normal: n, offset })
+    }
+
+    /// Signed distance of `x` from the plane (m), positive outside.
+    #[inline]
+    #[must_use]
+    pub(crate) fn distance(&self, x: Vec3) -> f32 {
+        dot(self.normal, x) - self.offset
+    }
+
+    /// The velocity change to prescribe along the normal for a held node at
+    /// signed distance `dist` with velocity `v`, so that it ends a step of
+    /// length `h` on the plane: `n·(v + Δv) = −dist / h`.
+    #[inline]
+    #[must_use]
+    pub(crate) fn held_dv(&self, dist: f32, v: Vec3, h: f32) -> f32 {
+        -dist / h - dot(self.normal, v)
+    }
+
+    /// Removes the normal component of `z` (the Baraff–Witkin filter).
+    #[inline]
+    #[must_use]
+    pub(crate) fn filter(&self, z: Vec3) -> Vec3 {
+        axpy(z, -dot(self.normal, z), self.normal)
+    }
+
+    /// `z` with its normal component replaced by `along`.
+    #[inline]
+    #[must_use]
+    pub(crate) fn with_normal(&self, z: Vec3, along: f32) -> Vec3 {
+        axpy(self.filter(z), along, self.normal)
+    }
+
+    /// Projects a node that ended below the plane back onto it and removes
+    /// its inward normal velocity. Returns the new displacement and velocity.
+    #[inline]
+    #[must_use]
+    pub(crate) fn project(&self, x0: Vec3, u: Vec3, v: Vec3) -> (Vec3, Vec3) {
+        let dist = self.distance(crate::math::add(x0, u));
+        if dist >= 0.0 {
+            return (u, v);
+        }
+        let u = axpy(u, -dist, self.normal);
+        let vn = dot(self.normal, v);
+        let v = if vn < 0.0 {
+            axpy(v, -vn, self.normal)
+        } else {
+            v
+        };
+        (u, v)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn normalisation_keeps_the_plane() {
+        let p = Plane {
+            normal: [0.0, 0.0, 2.0],
+            offset: 1.0,
+        }
+        .normalized()
+        .unwrap();
+        assert_eq!(p.normal, [0.0, 0.0, 1.0]);
+        assert_eq!(p.offset, 0.5);
+        assert!(Plane {
+            normal: [0.0; 3],
+            offset: 0.0
+        }
+        .normalized()
+        .is_none());
+        assert!(Plane {
+            normal: [0.0, 0.0, 1.0],
+            offset: f32::NAN
+        }
+        .normalized()
+        .is_none());
+    }
+
+    #[test]
+    fn projection_moves_onto_the_plane_and_stops_inward_motion() {
+        let p = Plane::Z_UP;
+        let (u, v) = p.project([0.0, 0.0, 0.0], [0.0, 0.0, -0.5], [1.0, 0.0, -2.0]);
+        assert_eq!(u, [0.0, 0.0, 0.0]);
+        assert_eq!(v, [1.0, 0.0, 0.0]);
+    }
+}
+
+impl<S: crate::Storage> crate::Scene<S> {
+    /// Sets (or removes, with `None`) the ground plane. Nodes already below it
+    /// are pushed out over the next steps.
+    pub fn set_ground(&mut self, plane: Option<Plane>) -> Result<(), crate::Error> {
+        self.hdr.ground = match plane {
+            Some(p) => Some(
+                p.normalized()
+                    .ok_or(crate::Error::InvalidParameter { name: "ground" })?,
+            ),
+            None => None,
+        };
+        Ok(())
+    }
+
+    /// The ground plane (normalised), if any.
+    #[must_use]
+    pub fn ground(&self) -> Option<Plane> {
+        self.hdr.ground
+    }
+}

@@ -1,0 +1,107 @@
+//! # corofem
+//!
+//! A `no_std`, allocation-free, fixed-capacity real-time soft-body solver:
+//! co-rotational linear finite elements on tetrahedra, after Nesme, Payan and
+//! Faure, *Efficient, physically plausible finite elements* (Eurographics 2005).
+//! All arithmetic is f32 in a fixed order, so a scene gives the same bits on
+//! x86_64, wasm32 and Cortex-M.
+//!
+//! ## The step
+//!
+//! ```text
+//!  nodes (x₀ + u, v)                 elements (rest frame, λ', μ')
+//!        │                                   │
+//!        └──► element pass ◄─────────────────┘   QR frame → B(current) → f_el,
+//!                 │                              world gradients g, −K v
+//!                 ▼
+//!            node pass: b = h (f_el + f_ext + m g − α_M M v) + h(α_K + h)(−K v)
+//!                 │       preconditioner M, fixed nodes, ground contacts, tool
+//!                 ▼
+//!            CG: A Δv = b, A = (1 + hα_M) M + h(α_K + h) K     (≤ cg_iterations,
+//!                 │   K d element by element from g, never assembled)
+//!                 ▼
+//!            v ← v + Δv, u ← u + h v  (only if finite), ground projection,
+//!            tool force
+//! ```
+//!
+//! ## Physical plausibility
+//!
+//! * Rotational invariance: a rigidly rotated body has no elastic force.
+//! * Newton: each element's forces sum to zero exactly (`f_a = −Σ fᵢ`).
+//! * Euler: with `B` from the current shape (`Method::Qr`) they have no net
+//!   torque; `Method::QrRestB` (SOFA's default) shows the ghost torques.
+//! * Momentum: lumped-mass-preconditioned CG keeps the linear and angular
+//!   momentum of an isolated body at any iteration count.
+//!
+//! ## Example
+//!
+//! ```
+//! use corofem::{BoxMesh, BuildOptions, Material, Settings, StaticScene};
+//!
+//! // A 1 m × 0.2 m × 0.2 m beam held at x = 0.
+//! let mesh = BoxMesh { size: [1.0, 0.2, 0.2], cells: [10, 2, 2], tets_per_cell: 6 };
+//! let mut nodes = [[0.0f32; 3]; 99];
+//! let mut tets = [[0u32; 4]; 240];
+//! let (n, t) = mesh.generate(&mut nodes, &mut tets).unwrap();
+//!
+//! static mut SCENE: StaticScene<99, 240> = StaticScene::new(); // fits in a static
+//! let mut scene: StaticScene<99, 240> = StaticScene::new();
+//! let material = Material { young: 1.0e6, poisson: 0.3, density: 1000.0 };
+//! scene.build(&nodes[..n], &tets[..t], &material, BuildOptions::default()).unwrap();
+//! let fixed: Vec<u32> = (0..n as u32).filter(|&i| nodes[i as usize][0] == 0.0).collect();
+//! scene.fix_nodes(&fixed).unwrap();
+//! scene.set_settings(Settings { dt: 1.0e-3, cg_iterations: 5, ..Settings::default() }).unwrap();
+//! for _ in 0..100 {
+//!     let stats = scene.step().unwrap();
+//!     assert_eq!(stats.inverted, 0);
+//! }
+//! ```
+//!
+//! ## Features
+//!
+//! | feature | what |
+//! |---|---|
+//! | `qr` (default) | the paper's QR method |
+//! | `polar`, `linear`, `qr-rest-b` | the other element methods |
+//! | `ground`, `tool`, `statics`, `diagnostics` | ground contact, haptic tool, static solve, energies and momenta |
+//! | `full` | all of the above |
+//! | `libm` (default) / `micromath` | math backend (exactly one) |
+//! | `defmt` | `defmt::Format` on public types |
+#![no_std]
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+#![cfg_attr(docsrs, feature(doc_cfg))]
+
+mod cg;
+mod element;
+mod error;
+mod material;
+mod math;
+mod mesh_gen;
+mod pass;
+mod scene;
+mod settings;
+mod step;
+mod storage;
+
+#[cfg(feature = "diagnostics")]
+mod diagnostics;
+#[cfg(feature = "ground")]
+mod ground;
+#[cfg(feature = "statics")]
+mod statics;
+#[cfg(feature = "tool")]
+mod tool;
+
+pub use element::{Element, Method};
+pub use error::{Error, StepError};
+#[cfg(feature = "ground")]
+pub use ground::Plane;
+pub use material::Material;
+pub use math::Vec3;
+pub use mesh_gen::BoxMesh;
+pub use scene::{BuildOptions, Scene, StaticScene};
+pub use settings::{Settings, StepStats};
+#[cfg(feature = "statics")]
+pub use statics::{NewtonStats, StaticSettings};
+pub use storage::{ArrayStorage, Node, NodeWork, SliceStorage, Storage};

@@ -1,0 +1,168 @@
+//! Small vector helpers on `[f32; 3]` and the math backend shim.
+//!
+//! The solver works on plain arrays so that hot loops stay simple, copyable and
+//! easy for the compiler to vectorise. Every function here is a fixed sequence
+//! of IEEE operations (no fused multiply-add), so results are bit-identical on
+//! every target.
+
+#[cfg(all(feature = "libm", feature = "micromath"))]
+compile_error!("corofem: enable exactly one math backend feature: `libm` or `micromath`, not both");
+#[cfg(not(any(feature = "libm", feature = "micromath")))]
+compile_error!("corofem: enable one math backend feature: `libm` (accurate, default) or `micromath` (fast, approximate)");
+
+/// A 3-vector (components in the unit of what it holds: m, m/s, N, ...).
+pub type Vec3 = [f32; 3];
+
+/// Square root through the selected backend.
+#[cfg(feature = "libm")]
+#[inline]
+#[must_use]
+pub(crate) fn sqrt(x: f32) -> f32 {
+    libm::sqrtf(x)
+}
+
+/// Square root through the selected backend (`micromath`: ~6% relative error).
+#[cfg(all(feature = "micromath", not(feature = "libm")))]
+#[inline]
+#[must_use]
+pub(crate) fn sqrt(x: f32) -> f32 {
+    micromath::F32Ext::sqrt(x)
+}
+
+#[inline]
+#[must_use]
+pub(crate) fn add(a: Vec3, b: Vec3) -> Vec3 {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+
+#[inline]
+#[must_use]
+pub(crate) fn sub(a: Vec3, b: Vec3) -> Vec3 {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+#[inline]
+#[must_use]
+pub(crate) fn scale(a: Vec3, s: f32) -> Vec3 {
+    [a[0] * s, a[1] * s, a[2] * s]
+}
+
+#[inline]
+#[must_use]
+pub(crate) fn neg(a: Vec3) -> Vec3 {
+    [-a[0], -a[1], -a[2]]
+}
+
+#[inline]
+#[must_use]
+pub(crate) fn dot(a: Vec3, b: Vec3) -> f32 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+#[inline]
+#[must_use]
+pub(crate) fn cross(a: Vec3, b: Vec3) -> Vec3 {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+/// `a + s b`.
+#[inline]
+#[must_use]
+pub(crate) fn axpy(a: Vec3, s: f32, b: Vec3) -> Vec3 {
+    [a[0] + s * b[0], a[1] + s * b[1], a[2] + s * b[2]]
+}
+
+#[inline]
+#[must_use]
+pub(crate) fn is_finite3(a: Vec3) -> bool {
+    a[0].is_finite() && a[1].is_finite() && a[2].is_finite()
+}
+
+/// Unit vector along `a`, or `None` when `|a|²` is zero, subnormal or not finite.
+#[inline]
+#[must_use]
+pub(crate) fn normalize(a: Vec3) -> Option<Vec3> {
+    let n2 = dot(a, a);
+    if n2 >= f32::MIN_POSITIVE && n2.is_finite() {
+        Some(scale(a, 1.0 / sqrt(n2)))
+    } else {
+        None
+    }
+}
+
+/// Determinant of the 3×3 matrix with columns `a`, `b`, `c`: `a · (b × c)`.
+#[inline]
+#[must_use]
+pub(crate) fn det3(a: Vec3, b: Vec3, c: Vec3) -> f32 {
+    dot(a, cross(b, c))
+}
+
+/// A 3×3 matrix stored by rows.
+pub(crate) type Mat3 = [[f32; 3]; 3];
+
+/// `M v`.
+#[cfg(any(feature = "polar", test))]
+#[inline]
+#[must_use]
+pub(crate) fn mat_vec(m: &Mat3, v: Vec3) -> Vec3 {
+    [dot(m[0], v), dot(m[1], v), dot(m[2], v)]
+}
+
+/// Solves the 3×3 system `M x = b` by Cramer's rule; `None` when `M` is
+/// singular to f32 precision (|det| below `1e-30` relative to the entries).
+#[must_use]
+pub(crate) fn solve3(m: &Mat3, b: Vec3) -> Option<Vec3> {
+    let c0 = [m[0][0], m[1][0], m[2][0]];
+    let c1 = [m[0][1], m[1][1], m[2][1]];
+    let c2 = [m[0][2], m[1][2], m[2][2]];
+    let det = det3(c0, c1, c2);
+    let size = dot(m[0], m[0]) + dot(m[1], m[1]) + dot(m[2], m[2]);
+    if !(det.abs() > 1e-30 * size * sqrt(size)) || !det.is_finite() {
+        return None;
+    }
+    let inv = 1.0 / det;
+    Some([
+        det3(b, c1, c2) * inv,
+        det3(c0, b, c2) * inv,
+        det3(c0, c1, b) * inv,
+    ])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cross_is_right_handed() {
+        assert_eq!(cross([1.0, 0.0, 0.0], [0.0, 1.0, 0.0]), [0.0, 0.0, 1.0]);
+    }
+
+    #[test]
+    fn normalize_rejects_zero_and_nan() {
+        assert!(normalize([0.0; 3]).is_none());
+        assert!(normalize([f32::NAN, 0.0, 0.0]).is_none());
+        assert!(normalize([1e-30, 0.0, 0.0]).is_none()); // |a|² underflows
+        let n = normalize([3.0, 0.0, 4.0]).unwrap();
+        assert_eq!(n, [0.6, 0.0, 0.8]);
+    }
+
+    #[test]
+    fn solve3_solves_and_detects_singular() {
+        let m = [[2.0, 0.0, 0.0], [0.0, 4.0, 1.0], [0.0, 1.0, 3.0]];
+        let x = solve3(&m, [2.0, 5.0, 4.0]).unwrap();
+        let r = mat_vec(&m, x);
+        for k in 0..3 {
+            // f32 round-off on O(1) entries.
+            assert!((r[k] - [2.0, 5.0, 4.0][k]).abs() < 1e-5);
+        }
+        assert!(solve3(
+            &[[1.0, 2.0, 3.0], [2.0, 4.0, 6.0], [0.0, 0.0, 1.0]],
+            [1.0; 3]
+        )
+        .is_none());
+    }
+}

@@ -1,0 +1,608 @@
+//! The scene: a validated mesh, its material and state, and the public API.
+
+use crate::element::{qr, Element, Method};
+use crate::error::{Error, StepError};
+use crate::material::{element_lame, lame_per_young, validate_poisson, validate_young, Material};
+use crate::math::{det3, is_finite3, sub, Vec3};
+use crate::settings::{Settings, StepStats};
+use crate::storage::{ArrayStorage, Node, NodeWork, Storage, FIXED};
+
+#[cfg(feature = "ground")]
+use crate::ground::Plane;
+#[cfg(feature = "tool")]
+use crate::tool::ToolState;
+
+/// Options of [`Scene::build`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct BuildOptions {
+    /// Swap the last two nodes of negatively oriented tetrahedra instead of
+    /// rejecting them. Default off.
+    pub reorient: bool,
+}
+
+/// Everything about a scene that is not per node or per element.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Header {
+    pub(crate) n_nodes: usize,
+    pub(crate) n_elems: usize,
+    pub(crate) poisson: f32,
+    pub(crate) density: f32,
+    pub(crate) settings: Settings,
+    pub(crate) time: f64,
+    pub(crate) inverted: u32,
+    #[cfg(feature = "ground")]
+    pub(crate) ground: Option<Plane>,
+    #[cfg(feature = "tool")]
+    pub(crate) tool: ToolState,
+}
+
+impl Header {
+    const EMPTY: Self = Self {
+        n_nodes: 0,
+        n_elems: 0,
+        poisson: 0.0,
+        density: 0.0,
+        settings: Settings::new(),
+        time: 0.0,
+        inverted: 0,
+        #[cfg(feature = "ground")]
+        ground: None,
+        #[cfg(feature = "tool")]
+        tool: ToolState::NONE,
+    };
+}
+
+/// A soft body: tetrahedral mesh, material, state, constraints and loads.
+///
+/// Generic over where its data lives: [`StaticScene`] keeps everything in
+/// arrays of fixed capacity (a `static` on a microcontroller), and
+/// [`Scene::with_storage`] takes any other [`Storage`] (caller-owned slices).
+///
+/// ```
+/// use corofem::{BuildOptions, Material, StaticScene};
+/// let nodes = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+/// let tets = [[0, 1, 2, 3]];
+/// let mut scene: StaticScene<4, 1> = StaticScene::new();
+/// scene.build(&nodes, &tets, &Material::default(), BuildOptions::default()).unwrap();
+/// scene.fix_nodes(&[0, 1, 2]).unwrap();
+/// let stats = scene.step().unwrap();
+/// assert_eq!(stats.inverted, 0);
+/// assert!(scene.position(3).unwrap()[2] < 1.0); // it sags under gravity
+/// ```
+#[derive(Clone, Debug)]
+pub struct Scene<S: Storage> {
+    pub(crate) hdr: Header,
+    store: S,
+}
+
+/// A scene in fixed-capacity arrays: up to `N` nodes (at most 65 536) and
+/// `T` tetrahedra.
+pub type StaticScene<const N: usize, const T: usize> = Scene<ArrayStorage<N, T>>;
+
+impl<const N: usize, const T: usize> Scene<ArrayStorage<N, T>> {
+    /// An empty scene, in `const` context.
+    #[must_use]
+    pub const fn new() -> Self {
+        Self {
+            hdr: Header::EMPTY,
+            store: ArrayStorage::new(),
+        }
+    }
+}
+
+impl<const N: usize, const T: usize> Default for Scene<ArrayStorage<N, T>> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// Mutable access to the used part of every slot array.
+pub(crate) struct View<'a> {
+    pub(crate) hdr: &'a mut Header,
+    pub(crate) nodes: &'a mut [Node],
+    pub(crate) work: &'a mut [NodeWork],
+    pub(crate) elems: &'a mut [Element],
+}
+
+/// Largest node count that `u16` indices address.
+const MAX_U16_NODES: usize = 1 << 16;
+
+impl<S: Storage> Scene<S> {
+    /// An empty scene over `store`.
+    pub const fn with_storage(store: S) -> Self {
+        Self {
+            hdr: Header::EMPTY,
+            store,
+        }
+    }
+
+    /// Node capacity of the storage (at most 65 536 are usable).
+    #[must_use]
+    pub fn node_capacity(&self) -> usize {
+        self.store.parts().0.len().min(MAX_U16_NODES)
+    }
+
+    /// Element capacity of the storage.
+    #[must_use]
+    pub fn element_capacity(&self) -> usize {
+        self.store.parts().1.len()
+    }
+
+    pub(crate) fn view(&mut self) -> View<'_> {
+        let (n, e) = (self.hdr.n_nodes, self.hdr.n_elems);
+        let (nodes, work, elems) = self.store.parts_mut();
+        View {
+            hdr: &mut self.hdr,
+            nodes: nodes.get_mut(..n).unwrap_or_default(),
+            work: work.get_mut(..n).unwrap_or_default(),
+            elems: elems.get_mut(..e).unwrap_or_default(),
+        }
+    }
+
+    fn nodes(&self) -> &[Node] {
+        self.store
+            .parts()
+            .0
+            .get(..self.hdr.n_nodes)
+            .unwrap_or_default()
+    }
+
+    fn elems(&self) -> &[Element] {
+        self.store
+            .parts()
+            .1
+            .get(..self.hdr.n_elems)
+            .unwrap_or_default()
+    }
+
+    /// Builds the scene from node positions (m) and tetrahedra (node indices),
+    /// replacing what was there. Everything is validated before anything is
+    /// written: on error the scene is unchanged.
+    ///
+    /// Rest local frames are computed with the step's own kernel, so the rest
+    /// shape is an exact equilibrium in f32. Masses are lumped: each node gets
+    /// a quarter of `ρ V₀` of every element around it. Settings are kept;
+    /// fixed nodes, forces, the tool and the velocities are reset.
+    pub fn build(
+        &mut self,
+        positions: &[Vec3],
+        tets: &[[u32; 4]],
+        material: &Material,
+        options: BuildOptions,
+    ) -> Result<(), Error> {
+        material.validate()?;
+        let node_cap = self.node_capacity();
+        let elem_cap = self.element_capacity();
+        if positions.len() > node_cap {
+            return Err(Error::TooManyNodes {
+                count: positions.len(),
+                capacity: node_cap,
+            });
+        }
+        if tets.len() > elem_cap {
+            return Err(Error::TooManyElements {
+                count: tets.len(),
+                capacity: elem_cap,
+            });
+        }
+        if tets.is_empty() {
+            return Err(Error::NoElements);
+        }
+        if let Some(node) = positions.iter().position(|p| !is_finite3(*p)) {
+            return Err(Error::NonFiniteCoordinate { node });
+        }
+        let per_young = lame_per_young(material.poisson);
+        let (nodes, work, elems) = self.store.parts_mut();
+        // Pass 1: validate every element; mark used nodes in the solver scratch.
+        for w in work.iter_mut() {
+            w.inv_p = 0.0;
+        }
+        for (e, tet) in tets.iter().enumerate() {
+            let t = oriented(e, tet, positions, options)?;
+            let (_, six_v0) = rest_frame(positions, &t);
+            // 1/(36 V₀) must be finite for the element coefficients.
+            if !(six_v0 >= f32::MIN_POSITIVE && (1.0 / (6.0 * six_v0)).is_finite()) {
+                return Err(Error::DegenerateElement { element: e });
+            }
+            for i in t {
+                if let Some(w) = work.get_mut(i as usize) {
+                    w.inv_p = 1.0;
+                }
+            }
+        }
+        if let Some(node) = work
+            .iter()
+            .take(positions.len())
+            .position(|w| w.inv_p == 0.0)
+        {
+            return Err(Error::UnusedNode { node });
+        }
+        // Pass 2: write.
+        for (slot, p) in nodes.iter_mut().zip(positions) {
+            *slot = Node {
+                x0: *p,
+                ..Node::EMPTY
+            };
+        }
+        for w in work.iter_mut() {
+            *w = NodeWork::EMPTY;
+        }
+        for ((e, tet), slot) in tets.iter().enumerate().zip(elems.iter_mut()) {
+            // Validated above: `oriented` cannot fail here.
+            let t = oriented(e, tet, positions, options).unwrap_or([0; 4]);
+            let (frame, six_v0) = rest_frame(positions, &t);
+            let lame = element_lame(material.young, per_young, six_v0);
+            // Rest world gradients from the same kernel as the step.
+            let rest_out = qr::forces::<true>(
+                edge(positions, &t, 1),
+                edge(positions, &t, 2),
+                edge(positions, &t, 3),
+                &frame.local,
+                lame,
+            );
+            *slot = Element {
+                nodes: [t[0] as u16, t[1] as u16, t[2] as u16, t[3] as u16],
+                rest: frame.local,
+                young: material.young,
+                lame,
+                grad: rest_out.grad,
+                #[cfg(any(feature = "polar", feature = "linear"))]
+                rest_grad: rest_out.grad,
+                ..Element::EMPTY
+            };
+            let quarter = material.density * six_v0 * (1.0 / 24.0);
+            for i in t {
+                if let Some(n) = nodes.get_mut(i as usize) {
+                    n.mass += quarter;
+                }
+            }
+        }
+        self.hdr.n_nodes = positions.len();
+        self.hdr.n_elems = tets.len();
+        self.hdr.poisson = material.poisson;
+        self.hdr.density = material.density;
+        self.hdr.time = 0.0;
+        self.hdr.inverted = 0;
+        #[cfg(feature = "tool")]
+        {
+            self.hdr.tool = ToolState::NONE;
+        }
+        Ok(())
+    }
+
+    /// Number of nodes of the built scene.
+    #[must_use]
+    pub fn node_count(&self) -> usize {
+        self.hdr.n_nodes
+    }
+
+    /// Number of tetrahedra of the built scene.
+    #[must_use]
+    pub fn element_count(&self) -> usize {
+        self.hdr.n_elems
+    }
+
+    /// The step settings.
+    #[must_use]
+    pub fn settings(&self) -> &Settings {
+        &self.hdr.settings
+    }
+
+    /// Replaces the step settings after validating them. Switching to the
+    /// polar method restarts its rotations from the identity.
+    pub fn set_settings(&mut self, settings: Settings) -> Result<(), Error> {
+        settings.validate()?;
+        #[cfg(feature = "polar")]
+        if settings.method == Method::Polar && self.hdr.settings.method != Method::Polar {
+            for el in self.view().elems.iter_mut() {
+                el.rot = crate::element::polar::IDENTITY;
+            }
+        }
+        self.hdr.settings = settings;
+        Ok(())
+    }
+
+    /// Changes only the element method.
+    pub fn set_method(&mut self, method: Method) -> Result<(), Error> {
+        self.set_settings(Settings {
+            method,
+            ..self.hdr.settings
+        })
+    }
+
+    /// Simulated time since the build (s).
+    #[must_use]
+    pub fn time(&self) -> f64 {
+        self.hdr.time
+    }
+
+    /// Current position of node `i` (m).
+    #[must_use]
+    pub fn position(&self, i: usize) -> Option<Vec3> {
+        self.nodes().get(i).map(Node::position)
+    }
+
+    /// Rest position of node `i` (m).
+    #[must_use]
+    pub fn rest_position(&self, i: usize) -> Option<Vec3> {
+        self.nodes().get(i).map(|n| n.x0)
+    }
+
+    /// Displacement of node `i` from rest (m).
+    #[must_use]
+    pub fn displacement(&self, i: usize) -> Option<Vec3> {
+        self.nodes().get(i).map(|n| n.u)
+    }
+
+    /// Velocity of node `i` (m/s).
+    #[must_use]
+    pub fn velocity(&self, i: usize) -> Option<Vec3> {
+        self.nodes().get(i).map(|n| n.v)
+    }
+
+    /// Lumped mass of node `i` (kg).
+    #[must_use]
+    pub fn mass(&self, i: usize) -> Option<f32> {
+        self.nodes().get(i).map(|n| n.mass)
+    }
+
+    /// Whether node `i` is fixed.
+    #[must_use]
+    pub fn is_fixed(&self, i: usize) -> bool {
+        self.nodes().get(i).is_some_and(|n| n.flags & FIXED != 0)
+    }
+
+    /// Current positions of all nodes, in order (m).
+    pub fn positions(&self) -> impl Iterator<Item = Vec3> + '_ {
+        self.nodes().iter().map(Node::position)
+    }
+
+    /// Velocities of all nodes, in order (m/s).
+    pub fn velocities(&self) -> impl Iterator<Item = Vec3> + '_ {
+        self.nodes().iter().map(|n| n.v)
+    }
+
+    /// Node indices of element `e` (as stored: re-oriented if asked).
+    #[must_use]
+    pub fn element_nodes(&self, e: usize) -> Option<[u16; 4]> {
+        self.elems().get(e).map(|el| el.nodes)
+    }
+
+    /// Young's modulus of element `e` (Pa).
+    #[must_use]
+    pub fn young(&self, e: usize) -> Option<f32> {
+        self.elems().get(e).map(|el| el.young)
+    }
+
+    /// Rest volume of element `e` (m³).
+    #[must_use]
+    pub fn rest_volume(&self, e: usize) -> Option<f32> {
+        self.elems().get(e).map(|el| el.six_v0() * (1.0 / 6.0))
+    }
+
+    /// Elements with negative volume at the start of the last step.
+    #[must_use]
+    pub fn inverted_count(&self) -> u32 {
+        self.hdr.inverted
+    }
+
+    /// Sets Young's modulus of one element (Pa, `≥ 0`).
+    pub fn set_young(&mut self, e: usize, young: f32) -> Result<(), Error> {
+        validate_young(young)?;
+        let per_young = lame_per_young(self.hdr.poisson);
+        let el = self
+            .view()
+            .elems
+            .get_mut(e)
+            .ok_or(Error::ElementOutOfRange { element: e })?;
+        el.young = young;
+        el.lame = element_lame(young, per_young, el.six_v0());
+        Ok(())
+    }
+
+    /// Sets Young's modulus of every element (Pa, `≥ 0`) — the paper's rabbit:
+    /// crushed at zero stiffness, then raised.
+    pub fn set_young_all(&mut self, young: f32) -> Result<(), Error> {
+        validate_young(young)?;
+        for el in self.view().elems.iter_mut() {
+            el.young = young;
+        }
+        self.refresh_lame();
+        Ok(())
+    }
+
+    /// Sets the Poisson ratio of the whole body (`0 ≤ ν < 0.5`).
+    pub fn set_poisson(&mut self, poisson: f32) -> Result<(), Error> {
+        validate_poisson(poisson)?;
+        self.hdr.poisson = poisson;
+        self.refresh_lame();
+        Ok(())
+    }
+
+    fn refresh_lame(&mut self) {
+        let per_young = lame_per_young(self.hdr.poisson);
+        for el in self.view().elems.iter_mut() {
+            el.lame = element_lame(el.young, per_young, el.six_v0());
+        }
+    }
+
+    /// Fixes the listed nodes (they stop and stay where they are).
+    pub fn fix_nodes(&mut self, nodes: &[u32]) -> Result<(), Error> {
+        let v = self.view();
+        check_nodes(nodes, v.nodes.len())?;
+        for &i in nodes {
+            if let Some(n) = v.nodes.get_mut(i as usize) {
+                n.flags |= FIXED;
+                n.v = [0.0; 3];
+            }
+        }
+        Ok(())
+    }
+
+    /// Frees every fixed node.
+    pub fn unfix_all(&mut self) {
+        for n in self.view().nodes.iter_mut() {
+            n.flags &= !FIXED;
+        }
+    }
+
+    /// Sets the constant external force on node `i` (N).
+    pub fn set_force(&mut self, i: usize, force: Vec3) -> Result<(), Error> {
+        if !is_finite3(force) {
+            return Err(Error::InvalidParameter { name: "force" });
+        }
+        let n = self
+            .view()
+            .nodes
+            .get_mut(i)
+            .ok_or(Error::NodeOutOfRange { node: i })?;
+        n.f_ext = force;
+        Ok(())
+    }
+
+    /// Removes every external force.
+    pub fn clear_forces(&mut self) {
+        for n in self.view().nodes.iter_mut() {
+            n.f_ext = [0.0; 3];
+        }
+    }
+
+    /// Sets all current positions (m); displacements follow as position − rest.
+    pub fn set_positions(&mut self, positions: &[Vec3]) -> Result<(), Error> {
+        let v = self.view();
+        check_field(positions, v.nodes.len(), "positions")?;
+        for (n, p) in v.nodes.iter_mut().zip(positions) {
+            n.u = sub(*p, n.x0);
+        }
+        Ok(())
+    }
+
+    /// Sets all displacements from rest (m).
+    pub fn set_displacements(&mut self, displacements: &[Vec3]) -> Result<(), Error> {
+        let v = self.view();
+        check_field(displacements, v.nodes.len(), "displacements")?;
+        for (n, u) in v.nodes.iter_mut().zip(displacements) {
+            n.u = *u;
+        }
+        Ok(())
+    }
+
+    /// Sets all velocities (m/s). Fixed nodes keep zero velocity.
+    pub fn set_velocities(&mut self, velocities: &[Vec3]) -> Result<(), Error> {
+        let v = self.view();
+        check_field(velocities, v.nodes.len(), "velocities")?;
+        for (n, vel) in v.nodes.iter_mut().zip(velocities) {
+            n.v = if n.flags & FIXED != 0 { [0.0; 3] } else { *vel };
+        }
+        Ok(())
+    }
+
+    /// Back to the rest shape at rest: displacements, velocities, the warm
+    /// start and the time are zeroed (constraints and loads are kept).
+    pub fn reset_state(&mut self) {
+        let v = self.view();
+        for n in v.nodes.iter_mut() {
+            n.u = [0.0; 3];
+            n.v = [0.0; 3];
+        }
+        for w in v.work.iter_mut() {
+            *w = NodeWork::EMPTY;
+        }
+        v.hdr.time = 0.0;
+    }
+
+    /// Advances the scene by one implicit Euler step of `settings().dt`.
+    ///
+    /// Never panics and never allocates. If the solve produces non-finite
+    /// values the step is not applied and [`StepError::Diverged`] is returned.
+    pub fn step(&mut self) -> Result<StepStats, StepError> {
+        crate::step::step(self.view())
+    }
+
+    /// A 64-bit FNV-1a hash of the bits of every displacement and velocity:
+    /// equal hashes mean bit-identical states.
+    #[must_use]
+    pub fn state_hash(&self) -> u64 {
+        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+        for n in self.nodes() {
+            for x in n.u.iter().chain(n.v.iter()) {
+                for byte in x.to_bits().to_le_bytes() {
+                    h ^= u64::from(byte);
+                    h = h.wrapping_mul(0x0000_0100_0000_01b3);
+                }
+            }
+        }
+        h
+    }
+}
+
+/// The validated, positively oriented node indices of tetrahedron `e`.
+fn oriented(
+    e: usize,
+    tet: &[u32; 4],
+    positions: &[Vec3],
+    options: BuildOptions,
+) -> Result<[u32; 4], Error> {
+    let n = positions.len();
+    for (k, &i) in tet.iter().enumerate() {
+        if i as usize >= n || i as usize >= MAX_U16_NODES {
+            return Err(Error::NodeIndexOutOfRange {
+                element: e,
+                node: i as usize,
+            });
+        }
+        if tet[..k].contains(&i) {
+            return Err(Error::RepeatedNode {
+                element: e,
+                node: i as usize,
+            });
+        }
+    }
+    let mut t = *tet;
+    let det = det3(
+        edge(positions, &t, 1),
+        edge(positions, &t, 2),
+        edge(positions, &t, 3),
+    );
+    if det < 0.0 {
+        if !options.reorient {
+            return Err(Error::InvertedElement { element: e });
+        }
+        t.swap(2, 3);
+    } else if !(det > 0.0) {
+        return Err(Error::DegenerateElement { element: e });
+    }
+    Ok(t)
+}
+
+/// Rest edge `t[k] − t[0]` (m); indices already validated.
+fn edge(positions: &[Vec3], t: &[u32; 4], k: usize) -> Vec3 {
+    let p = |i: u32| positions.get(i as usize).copied().unwrap_or([0.0; 3]);
+    sub(p(t[k]), p(t[0]))
+}
+
+/// QR frame of the rest shape and `6V₀ = xb·yc·zd` (m³).
+fn rest_frame(positions: &[Vec3], t: &[u32; 4]) -> (qr::Frame, f32) {
+    let f = qr::frame(
+        edge(positions, t, 1),
+        edge(positions, t, 2),
+        edge(positions, t, 3),
+    );
+    let six_v0 = f.local[0] * f.local[2] * f.local[5];
+    (f, six_v0)
+}
+
+fn check_nodes(nodes: &[u32], n: usize) -> Result<(), Error> {
+    match nodes.iter().find(|&&i| i as usize >= n) {
+        Some(&i) => Err(Error::NodeOutOfRange { node: i as usize }),
+        None => Ok(()),
+    }
+}
+
+fn check_field(values: &[Vec3], n: usize, name: &'static str) -> Result<(), Error> {
+    if values.len() != n || !values.iter().all(|v| is_finite3(*v)) {
+        return Err(Error::InvalidParameter { name });
+    }
+    Ok(())
+}

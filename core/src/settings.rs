@@ -1,0 +1,94 @@
+//! Plain configuration structs with documented units and defaults, and the
+//! statistics a step returns.
+
+use crate::element::Method;
+use crate::error::Error;
+use crate::math::{is_finite3, Vec3};
+
+/// How the scene is stepped.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Settings {
+    /// Element method. Default `Qr` (when compiled in).
+    pub method: Method,
+    /// Time step `h` (s, `> 0`). Default 0.001.
+    pub dt: f32,
+    /// Most conjugate-gradient iterations per step (`≥ 1`). Default 5.
+    pub cg_iterations: u32,
+    /// Relative residual (preconditioned norm) at which CG stops early
+    /// (`≥ 0`; 0 = always run `cg_iterations`). Default 0.
+    pub cg_tolerance: f32,
+    /// Mass-proportional Rayleigh damping `α_M` (1/s, `≥ 0`). Default 0.
+    pub rayleigh_mass: f32,
+    /// Stiffness-proportional Rayleigh damping `α_K` (s, `≥ 0`). Default 0.
+    pub rayleigh_stiffness: f32,
+    /// Start CG from the previous step's velocity change (with its net linear
+    /// and angular momentum removed when nothing holds the body). Default off.
+    pub warm_start: bool,
+    /// Gravity (m/s²). Default `(0, 0, −9.81)`.
+    pub gravity: Vec3,
+}
+
+impl Settings {
+    /// The documented defaults.
+    #[must_use]
+    pub const fn new() -> Self {
+        Self {
+            method: Method::DEFAULT,
+            dt: 1.0e-3,
+            cg_iterations: 5,
+            cg_tolerance: 0.0,
+            rayleigh_mass: 0.0,
+            rayleigh_stiffness: 0.0,
+            warm_start: false,
+            gravity: [0.0, 0.0, -9.81],
+        }
+    }
+
+    /// Checks every field's range; the error names the field.
+    pub fn validate(&self) -> Result<(), Error> {
+        let bad = |name| Err(Error::InvalidParameter { name });
+        if !(self.dt > 0.0 && self.dt.is_finite()) {
+            return bad("dt");
+        }
+        if self.cg_iterations == 0 {
+            return bad("cg_iterations");
+        }
+        if !(self.cg_tolerance >= 0.0 && self.cg_tolerance.is_finite()) {
+            return bad("cg_tolerance");
+        }
+        if !(self.rayleigh_mass >= 0.0 && self.rayleigh_mass.is_finite()) {
+            return bad("rayleigh_mass");
+        }
+        if !(self.rayleigh_stiffness >= 0.0 && self.rayleigh_stiffness.is_finite()) {
+            return bad("rayleigh_stiffness");
+        }
+        if !is_finite3(self.gravity) {
+            return bad("gravity");
+        }
+        Ok(())
+    }
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// What one step did.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct StepStats {
+    /// CG iterations run.
+    pub cg_iterations: u32,
+    /// Final CG residual relative to the initial one (preconditioned norm).
+    pub cg_residual: f32,
+    /// Elements with negative current volume, at the start of the step.
+    pub inverted: u32,
+    /// Nodes held by the ground during the step.
+    pub contacts: u32,
+    /// Force the body exerts on the tool at the end of the step (N): what a
+    /// haptic device renders. Zero without a tool.
+    pub tool_force: Vec3,
+}

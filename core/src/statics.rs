@@ -1,0 +1,181 @@
+//! Static equilibrium: Newton iterations `K(x) Δx = f(x)` with a CG inner
+//! solve, for the sag of a body under constant loads.
+//!
+//! The residual force is recomputed from the displacements at every Newton
+//! iteration, which acts as iterative refinement: f32 CG alone stagnates on
+//! stiff, slender bodies (DESIGN.md §4b), while "accurate residual → a few
+//! hundred CG iterations → update" converges. CG is preconditioned with the
+//! stiffness diagonal (Jacobi, one scalar per node). Fixed nodes and the tool
+//! spring hold the body; the ground plays no part in a static solve.
+
+use crate::cg;
+use crate::math::{add, axpy, dot, is_finite3, scale, sqrt, sub};
+use crate::pass;
+#[cfg(feature = "tool")]
+use crate::storage::GRABBED;
+use crate::storage::{NodeWork, Storage, FIXED};
+use crate::{Error, Scene};
+
+/// Settings of a static solve.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct StaticSettings {
+    /// Most Newton iterations. Default 30.
+    pub max_iterations: u32,
+    /// Most CG iterations per Newton iteration. Default 400.
+    pub cg_iterations: u32,
+    /// Relative CG residual at which an inner solve stops. Default 1e-4.
+    pub cg_tolerance: f32,
+    /// Converged when the out-of-balance force is this fraction of the load
+    /// (external forces, gravity and tool). Default 1e-5.
+    pub tolerance: f32,
+}
+
+impl Default for StaticSettings {
+    fn default() -> Self {
+        Self {
+            max_iterations: 30,
+            cg_iterations: 400,
+            cg_tolerance: 1.0e-4,
+            tolerance: 1.0e-5,
+        }
+    }
+}
+
+/// One Newton iteration of a static solve.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct NewtonStats {
+    /// Iteration number, from 0.
+    pub iteration: u32,
+    /// Out-of-balance force before this iteration's update, relative to the load.
+    pub residual: f32,
+    /// CG iterations of this iteration's solve (0 when already converged).
+    pub cg_iterations: u32,
+    /// Final relative CG residual of this iteration's solve.
+    pub cg_residual: f32,
+    /// Inverted elements.
+    pub inverted: u32,
+    /// `residual ≤ tolerance`.
+    pub converged: bool,
+}
+
+impl<S: Storage> Scene<S> {
+    /// Moves the body to static equilibrium under its current loads, starting
+    /// from the current shape, and zeroes the velocities. Calls
+    /// `on_iteration` after every Newton iteration; returns the last one.
+    pub fn solve_static(
+        &mut self,
+        cfg: &StaticSettings,
+        mut on_iteration: impl FnMut(&NewtonStats),
+    ) -> Result<NewtonStats, Error> {
+        if cfg.cg_iterations == 0 || !(cfg.tolerance >= 0.0) || !(cfg.cg_tolerance >= 0.0) {
+            return Err(Error::InvalidParameter { name: "static" });
+        }
+        let v = self.view();
+        if v.elems.is_empty() {
+            return Err(Error::NotBuilt);
+        }
+        #[cfg(feature = "tool")]
+        let tool = v.hdr.tool;
+        #[allow(unused_mut)] // only the tool adds to it
+        let mut held = v.nodes.iter().any(|n| n.flags & FIXED != 0);
+        #[cfg(feature = "tool")]
+        {
+            held |= tool.active() && tool.k_node > 0.0;
+        }
+        if !held {
+            return Err(Error::Unconstrained);
+        }
+        let s = v.hdr.settings;
+        let (nodes, work, elems) = (v.nodes, v.work, v.elems);
+        let mut last = NewtonStats::default();
+        for iteration in 0..cfg.max_iterations.max(1) {
+            for w in work.iter_mut() {
+                *w = NodeWork::EMPTY;
+            }
+            let totals = pass::forces::<false, true>(s.method, nodes, elems, |i, f, _| {
+                if let Some(w) = work.get_mut(i) {
+                    w.r = add(w.r, f);
+                }
+            });
+            pass::stiffness_diagonal(elems, |i, d| {
+                if let Some(w) = work.get_mut(i) {
+                    w.inv_p += d;
+                }
+            });
+            // Out-of-balance force r = f_el + f_ext + m g (+ spring), and the load.
+            let (mut r2, mut load2) = (0.0f32, 0.0f32);
+            for (n, w) in nodes.iter().zip(work.iter_mut()) {
+                let mut load = add(n.f_ext, scale(s.gravity, n.mass));
+                #[allow(unused_mut)] // only the tool adds to it
+                let mut diag = w.inv_p;
+                #[cfg(feature = "tool")]
+                if n.flags & GRABBED != 0 && tool.active() {
+                    load = add(
+                        load,
+                        scale(sub(tool.anchor(n.grab), n.position()), tool.k_node),
+                    );
+                    diag += tool.k_node;
+                }
+                if n.flags & FIXED != 0 {
+                    w.r = [0.0; 3];
+                    w.inv_p = 0.0;
+                    continue;
+                }
+                w.r = add(w.r, load);
+                w.inv_p = if diag > 0.0 { 1.0 / diag } else { 0.0 };
+                r2 += dot(w.r, w.r);
+                load2 += dot(load, load);
+            }
+            let residual = sqrt(r2) / sqrt(load2).max(f32::MIN_POSITIVE);
+            last = NewtonStats {
+                iteration,
+                residual,
+                inverted: totals.inverted,
+                converged: residual <= cfg.tolerance,
+                ..NewtonStats::default()
+            };
+            if !last.converged {
+                let apply = |work: &mut [NodeWork]| {
+                    for w in work.iter_mut() {
+                        w.q = [0.0; 3];
+                    }
+                    pass::stiffness(elems, work);
+                    for (_n, w) in nodes.iter().zip(work.iter_mut()) {
+                        // K d = −(−K d), plus the tool spring.
+                        #[allow(unused_mut)] // only the tool adds to it
+                        let mut q = scale(w.q, -1.0);
+                        #[cfg(feature = "tool")]
+                        if _n.flags & GRABBED != 0 && tool.active() {
+                            q = axpy(q, tool.k_node, w.d);
+                        }
+                        w.q = q;
+                    }
+                };
+                let out = cg::solve(work, cfg.cg_iterations, cfg.cg_tolerance, |_, z| z, apply);
+                last.cg_iterations = out.iterations;
+                last.cg_residual = out.residual;
+                if !nodes
+                    .iter()
+                    .zip(work.iter())
+                    .all(|(n, w)| is_finite3(add(n.u, w.x)))
+                {
+                    return Err(Error::StaticDiverged);
+                }
+                for (n, w) in nodes.iter_mut().zip(work.iter()) {
+                    n.u = add(n.u, w.x);
+                }
+            }
+            on_iteration(&last);
+            if last.converged {
+                break;
+            }
+        }
+        for (n, w) in nodes.iter_mut().zip(work.iter_mut()) {
+            n.v = [0.0; 3];
+            *w = NodeWork::EMPTY;
+        }
+        Ok(last)
+    }
+}

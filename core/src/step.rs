@@ -1,0 +1,222 @@
+//! One implicit Euler step (Baraff–Witkin, linearised at the current state).
+//!
+//! ```text
+//! (M + h C + h² K) Δv = h (f₀ − h K v),   f₀ = f_el(x) + f_ext − C v,   C = α_M M + α_K K
+//! x ← x + h (v + Δv),   v ← v + Δv
+//! ```
+//!
+//! Expanded, with `A = (1 + h α_M) M + h (α_K + h) K` (plus `h² k/n` on nodes
+//! the tool holds):
+//!
+//! ```text
+//! b = h (f_el + f_ext + m g − α_M M v) + h (α_K + h) (−K v)
+//! ```
+//!
+//! Pipeline: one element pass computes the elastic forces, refreshes the
+//! world gradients and (fused) `−K v`; a node pass forms `b`, the
+//! preconditioner and the constraints; CG runs element passes of `−K d`; a
+//! last node pass checks the result is finite and applies it.
+
+use crate::cg;
+use crate::math::{add, axpy, cross, dot, is_finite3, scale, solve3, sub, Vec3};
+use crate::pass;
+use crate::scene::View;
+use crate::settings::StepStats;
+#[cfg(feature = "tool")]
+use crate::storage::GRABBED;
+#[cfg(feature = "ground")]
+use crate::storage::RELEASED;
+use crate::storage::{Node, NodeWork, CONTACT, FIXED};
+use crate::StepError;
+
+pub(crate) fn step(v: View<'_>) -> Result<StepStats, StepError> {
+    let View {
+        hdr,
+        nodes,
+        work,
+        elems,
+    } = v;
+    let s = hdr.settings;
+    let h = s.dt;
+    let mass_coef = 1.0 + h * s.rayleigh_mass;
+    let k_coef = h * (s.rayleigh_stiffness + h);
+    #[cfg(feature = "tool")]
+    let tool = hdr.tool;
+    #[cfg(feature = "ground")]
+    let ground = hdr.ground;
+
+    // Element pass: elastic forces into r, −K v into q.
+    for w in work.iter_mut() {
+        w.r = [0.0; 3];
+        w.q = [0.0; 3];
+    }
+    let totals = pass::forces::<true, true>(s.method, nodes, elems, |i, f, kv| {
+        if let Some(w) = work.get_mut(i) {
+            w.r = add(w.r, f);
+            w.q = add(w.q, kv);
+        }
+    });
+    hdr.inverted = totals.inverted;
+
+    // Node pass: right-hand side, preconditioner, constraints, initial guess.
+    #[allow(unused_mut)] // only the ground counts held nodes
+    let mut held = 0u32;
+    let mut constrained = false;
+    let mut guess = false;
+    for (n, w) in nodes.iter_mut().zip(work.iter_mut()) {
+        let m = n.mass;
+        let mut f = add(add(w.r, n.f_ext), scale(s.gravity, m));
+        f = axpy(f, -s.rayleigh_mass * m, n.v);
+        #[allow(unused_mut)] // only the tool adds to it
+        let mut p = mass_coef * m;
+        #[cfg(feature = "tool")]
+        if n.flags & GRABBED != 0 && tool.active() {
+            // Implicit spring: f += k (anchor − x) − h k v, A += h² k.
+            let k = tool.k_node;
+            f = add(f, scale(sub(tool.anchor(n.grab), n.position()), k));
+            f = axpy(f, -h * k, n.v);
+            p += h * h * k;
+            constrained = true;
+        }
+        w.r = axpy(scale(f, h), k_coef, w.q);
+        n.flags &= !CONTACT;
+        if n.flags & FIXED != 0 {
+            w.inv_p = 0.0;
+            w.x = [0.0; 3];
+            constrained = true;
+            continue;
+        }
+        w.inv_p = 1.0 / p;
+        if !s.warm_start {
+            w.x = [0.0; 3];
+        }
+        #[cfg(feature = "ground")]
+        if let Some(g) = ground {
+            let dist = g.distance(n.position());
+            if n.flags & RELEASED == 0 && dist <= 0.0 && dot(g.normal, n.v) <= 0.0 {
+                n.flags |= CONTACT;
+                w.x = g.with_normal(w.x, g.held_dv(dist, n.v, h));
+                held += 1;
+                constrained = true;
+            }
+        }
+        guess |= w.x != [0.0; 3];
+    }
+    if s.warm_start && !constrained {
+        remove_momentum(nodes, work);
+    }
+
+    // A d = (1 + h α_M) M d + h (α_K + h) K d (+ h² k/n d on grabbed nodes).
+    let apply = |work: &mut [NodeWork]| {
+        for w in work.iter_mut() {
+            w.q = [0.0; 3];
+        }
+        pass::stiffness(elems, work);
+        for (n, w) in nodes.iter().zip(work.iter_mut()) {
+            #[allow(unused_mut)] // only the tool adds to it
+            let mut p = mass_coef * n.mass;
+            #[cfg(feature = "tool")]
+            if n.flags & GRABBED != 0 && tool.active() {
+                p += h * h * tool.k_node;
+            }
+            w.q = axpy(scale(w.d, p), -k_coef, w.q);
+        }
+    };
+    let project = |i: usize, z: Vec3| -> Vec3 {
+        #[cfg(feature = "ground")]
+        if let (Some(g), Some(n)) = (ground, nodes.get(i)) {
+            if n.flags & CONTACT != 0 {
+                return g.filter(z);
+            }
+        }
+        let _ = i;
+        z
+    };
+    if guess {
+        // r = b − A x₀.
+        for w in work.iter_mut() {
+            w.d = w.x;
+        }
+        apply(work);
+        for w in work.iter_mut() {
+            w.r = sub(w.r, w.q);
+        }
+    }
+    let outcome = cg::solve(work, s.cg_iterations, s.cg_tolerance, project, apply);
+
+    // Check, then apply.
+    let ok = nodes.iter().zip(work.iter()).all(|(n, w)| {
+        let v = add(n.v, w.x);
+        is_finite3(v) && is_finite3(axpy(n.u, h, v))
+    });
+    if !ok {
+        return Err(StepError::Diverged);
+    }
+    #[allow(unused_mut)] // only the tool adds to it
+    let mut tool_force = [0.0f32; 3];
+    for (n, w) in nodes.iter_mut().zip(work.iter()) {
+        n.v = add(n.v, w.x);
+        n.u = axpy(n.u, h, n.v);
+        #[cfg(feature = "ground")]
+        if let Some(g) = ground {
+            // Release a held node whose contact force would pull (n·r > 0).
+            n.flags &= !RELEASED;
+            if n.flags & CONTACT != 0 && dot(g.normal, w.r) > 0.0 {
+                n.flags |= RELEASED;
+            }
+            (n.u, n.v) = g.project(n.x0, n.u, n.v);
+        }
+        #[cfg(feature = "tool")]
+        if n.flags & GRABBED != 0 && tool.active() {
+            // The body pulls the tool with minus the spring force.
+            tool_force = add(
+                tool_force,
+                scale(sub(n.position(), tool.anchor(n.grab)), tool.k_node),
+            );
+        }
+    }
+    hdr.time += f64::from(h);
+    Ok(StepStats {
+        cg_iterations: outcome.iterations,
+        cg_residual: outcome.residual,
+        inverted: totals.inverted,
+        contacts: held,
+        tool_force,
+    })
+}
+
+/// Removes the net linear and angular momentum of the warm-start guess
+/// `Σ m x` and `Σ (p − c) × m x` (about the centre of mass `c`), so that a
+/// warm start keeps the momentum of an isolated body exact.
+fn remove_momentum(nodes: &[Node], work: &mut [NodeWork]) {
+    let (mut mass, mut mc, mut lin) = (0.0f32, [0.0f32; 3], [0.0f32; 3]);
+    for (n, w) in nodes.iter().zip(work.iter()) {
+        mass += n.mass;
+        mc = axpy(mc, n.mass, n.position());
+        lin = axpy(lin, n.mass, w.x);
+    }
+    if !(mass > 0.0) {
+        return;
+    }
+    let c = scale(mc, 1.0 / mass);
+    let vel = scale(lin, 1.0 / mass);
+    // Angular momentum L of the guess about c and inertia I = Σ m (|r|² I − r rᵀ).
+    let mut l = [0.0f32; 3];
+    let mut inertia = [[0.0f32; 3]; 3];
+    for (n, w) in nodes.iter().zip(work.iter()) {
+        let r = sub(n.position(), c);
+        l = axpy(l, n.mass, cross(r, sub(w.x, vel)));
+        let r2 = dot(r, r);
+        for (a, row) in inertia.iter_mut().enumerate() {
+            for (b, iab) in row.iter_mut().enumerate() {
+                let delta = if a == b { r2 } else { 0.0 };
+                *iab += n.mass * (delta - r[a] * r[b]);
+            }
+        }
+    }
+    let omega = solve3(&inertia, l).unwrap_or([0.0; 3]);
+    for (n, w) in nodes.iter().zip(work.iter_mut()) {
+        let r = sub(n.position(), c);
+        w.x = sub(sub(w.x, vel), cross(omega, r));
+    }
+}

@@ -1,0 +1,175 @@
+//! Where a scene's data lives. The type that owns storage knows the capacity
+//! (`ArrayStorage<N, T>`, usable in a `static`); everything else works on
+//! slices, so the solver is not compiled once per capacity.
+
+use crate::element::Element;
+use crate::math::Vec3;
+
+/// Node flag: the node does not move (its velocity change is filtered out).
+pub(crate) const FIXED: u8 = 1;
+/// Node flag: the node is held by the haptic tool's spring.
+#[cfg(feature = "tool")]
+pub(crate) const GRABBED: u8 = 2;
+/// Node flag: the ground held this node last step but would have had to pull
+/// it; it is left free for the next step.
+#[cfg(feature = "ground")]
+pub(crate) const RELEASED: u8 = 4;
+/// Node flag: the ground holds this node during the current step.
+pub(crate) const CONTACT: u8 = 8;
+
+/// Per-node state (53 bytes of data; 56 with padding, +12 with `tool`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Node {
+    /// Rest position (m).
+    pub(crate) x0: Vec3,
+    /// Displacement from rest (m); the position is `x0 + u`. Keeping the
+    /// displacement rather than the position keeps forces accurate in f32
+    /// wherever the body sits.
+    pub(crate) u: Vec3,
+    /// Velocity (m/s).
+    pub(crate) v: Vec3,
+    /// External force (N), constant until changed.
+    pub(crate) f_ext: Vec3,
+    /// Lumped mass (kg): a quarter of `ρ V₀` of every element around the node.
+    pub(crate) mass: f32,
+    /// `FIXED | GRABBED | RELEASED | CONTACT`.
+    pub(crate) flags: u8,
+    /// Offset from the grabbed nodes' centroid when grabbed (m).
+    #[cfg(feature = "tool")]
+    pub(crate) grab: Vec3,
+}
+
+impl Node {
+    /// An unused slot.
+    pub const EMPTY: Self = Self {
+        x0: [0.0; 3],
+        u: [0.0; 3],
+        v: [0.0; 3],
+        f_ext: [0.0; 3],
+        mass: 0.0,
+        flags: 0,
+        #[cfg(feature = "tool")]
+        grab: [0.0; 3],
+    };
+
+    /// Current position `x0 + u` (m).
+    #[inline(always)]
+    #[must_use]
+    pub(crate) fn position(&self) -> Vec3 {
+        crate::math::add(self.x0, self.u)
+    }
+}
+
+impl Default for Node {
+    fn default() -> Self {
+        Self::EMPTY
+    }
+}
+
+/// Per-node scratch of the linear solver (52 bytes). Only `x` (the last
+/// velocity change, the warm start) carries from one step to the next.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NodeWork {
+    /// Solution `Δv` (m/s).
+    pub(crate) x: Vec3,
+    /// Residual `b − A x`, kept unfiltered so that its constrained components
+    /// give the constraint forces.
+    pub(crate) r: Vec3,
+    /// Search direction.
+    pub(crate) d: Vec3,
+    /// `A d`, then the preconditioned residual.
+    pub(crate) q: Vec3,
+    /// Inverse of the preconditioner's diagonal (0 on fixed nodes).
+    pub(crate) inv_p: f32,
+}
+
+impl NodeWork {
+    /// An unused slot.
+    pub const EMPTY: Self = Self {
+        x: [0.0; 3],
+        r: [0.0; 3],
+        d: [0.0; 3],
+        q: [0.0; 3],
+        inv_p: 0.0,
+    };
+}
+
+impl Default for NodeWork {
+    fn default() -> Self {
+        Self::EMPTY
+    }
+}
+
+/// Storage for a scene: the node, solver-scratch and element slots. The
+/// capacity is the length of the slices.
+pub trait Storage {
+    /// Node and element slots.
+    fn parts(&self) -> (&[Node], &[Element]);
+    /// All slots, mutable.
+    fn parts_mut(&mut self) -> (&mut [Node], &mut [NodeWork], &mut [Element]);
+}
+
+/// Fixed-capacity storage in plain arrays: up to `N` nodes and `T` tetrahedra.
+/// `const fn new` lets a whole scene live in a `static`.
+#[derive(Clone, Debug)]
+pub struct ArrayStorage<const N: usize, const T: usize> {
+    nodes: [Node; N],
+    work: [NodeWork; N],
+    elems: [Element; T],
+}
+
+impl<const N: usize, const T: usize> ArrayStorage<N, T> {
+    /// Empty storage.
+    #[must_use]
+    pub const fn new() -> Self {
+        Self {
+            nodes: [Node::EMPTY; N],
+            work: [NodeWork::EMPTY; N],
+            elems: [Element::EMPTY; T],
+        }
+    }
+}
+
+impl<const N: usize, const T: usize> Default for ArrayStorage<N, T> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<const N: usize, const T: usize> Storage for ArrayStorage<N, T> {
+    fn parts(&self) -> (&[Node], &[Element]) {
+        (&self.nodes, &self.elems)
+    }
+    fn parts_mut(&mut self) -> (&mut [Node], &mut [NodeWork], &mut [Element]) {
+        (&mut self.nodes, &mut self.work, &mut self.elems)
+    }
+}
+
+/// Storage in slices the caller owns (an arena, or vectors on a host).
+/// The node and work slices must have the same length; the shorter one sets
+/// the node capacity.
+#[derive(Debug)]
+pub struct SliceStorage<'a> {
+    nodes: &'a mut [Node],
+    work: &'a mut [NodeWork],
+    elems: &'a mut [Element],
+}
+
+impl<'a> SliceStorage<'a> {
+    /// Wraps caller-owned slots.
+    pub fn new(nodes: &'a mut [Node], work: &'a mut [NodeWork], elems: &'a mut [Element]) -> Self {
+        let n = nodes.len().min(work.len());
+        let (nodes, _) = nodes.split_at_mut(n);
+        let (work, _) = work.split_at_mut(n);
+        Self { nodes, work, elems }
+    }
+}
+
+impl Storage for SliceStorage<'_> {
+    fn parts(&self) -> (&[Node], &[Element]) {
+        (self.nodes, self.elems)
+    }
+    fn parts_mut(&mut self) -> (&mut [Node], &mut [NodeWork], &mut [Element]) {
+        (self.nodes, self.work, self.elems)
+    }
+}

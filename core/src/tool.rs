@@ -1,0 +1,130 @@
+//! The haptic tool: a set of grabbed nodes pulled by a spring towards a
+//! moving target — the coupling a haptic device renders.
+//!
+//! When nodes are grabbed, each remembers its offset `oᵢ` from the grabbed
+//! nodes' centroid. Node `i` is then pulled towards `target + oᵢ` by a spring
+//! of stiffness `k / n` (n grabbed nodes), so the total force on the body is
+//! `k (target − centroid)` and the grabbed patch follows the target rigidly.
+//!
+//! The spring is treated implicitly: it enters the step's matrix as `h² k/n`
+//! on the grabbed nodes and the right-hand side as `h (f − h k/n v)`, so a stiff
+//! spring is as stable as the elastic forces at any time step. The force on the
+//! tool is minus the spring force on the body at the end of the step.
+
+use crate::math::{add, Vec3};
+
+/// State of the tool.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct ToolState {
+    /// Spring stiffness per grabbed node, `k / n` (N/m); 0 when released.
+    pub(crate) k_node: f32,
+    /// Where the grabbed nodes' centroid is pulled to (m).
+    pub(crate) target: Vec3,
+    /// Number of grabbed nodes.
+    pub(crate) count: u32,
+}
+
+impl ToolState {
+    /// No tool.
+    pub(crate) const NONE: Self = Self {
+        k_node: 0.0,
+        target: [0.0; 3],
+        count: 0,
+    };
+
+    /// Whether nodes are grabbed.
+    #[inline]
+    #[must_use]
+    pub(crate) fn active(&self) -> bool {
+        self.count > 0
+    }
+
+    /// Anchor of a node with grab offset `offset`: `target + oᵢ` (m).
+    #[inline]
+    #[must_use]
+    pub(crate) fn anchor(&self, offset: Vec3) -> Vec3 {
+        add(self.target, offset)
+    }
+}
+
+impl<S: crate::Storage> crate::Scene<S> {
+    /// Grabs `nodes` with the tool: a spring of total stiffness `stiffness`
+    /// (N/m) between their centroid and the tool target, which starts at that
+    /// centroid. Replaces any previous grab. Listing a node twice grabs it once.
+    pub fn grab(&mut self, nodes: &[u32], stiffness: f32) -> Result<(), crate::Error> {
+        use crate::storage::GRABBED;
+        let v = self.view();
+        if let Some(&i) = nodes.iter().find(|&&i| i as usize >= v.nodes.len()) {
+            return Err(crate::Error::NodeOutOfRange { node: i as usize });
+        }
+        if nodes.is_empty() {
+            return Err(crate::Error::InvalidParameter { name: "tool.nodes" });
+        }
+        if !(stiffness >= 0.0 && stiffness.is_finite()) {
+            return Err(crate::Error::InvalidParameter {
+                name: "tool.stiffness",
+            });
+        }
+        for n in v.nodes.iter_mut() {
+            n.flags &= !GRABBED;
+        }
+        for &i in nodes {
+            if let Some(n) = v.nodes.get_mut(i as usize) {
+                n.flags |= GRABBED;
+            }
+        }
+        let (mut count, mut sum) = (0u32, [0.0f32; 3]);
+        for n in v.nodes.iter().filter(|n| n.flags & GRABBED != 0) {
+            count += 1;
+            sum = add(sum, n.position());
+        }
+        let centroid = crate::math::scale(sum, 1.0 / count as f32);
+        for n in v.nodes.iter_mut().filter(|n| n.flags & GRABBED != 0) {
+            n.grab = crate::math::sub(n.position(), centroid);
+        }
+        v.hdr.tool = ToolState {
+            k_node: stiffness / count as f32,
+            target: centroid,
+            count,
+        };
+        Ok(())
+    }
+
+    /// Lets go of the grabbed nodes.
+    pub fn release(&mut self) {
+        let v = self.view();
+        for n in v.nodes.iter_mut() {
+            n.flags &= !crate::storage::GRABBED;
+        }
+        v.hdr.tool = ToolState::NONE;
+    }
+
+    /// Whether the tool holds nodes.
+    #[must_use]
+    pub fn is_grabbing(&self) -> bool {
+        self.hdr.tool.active()
+    }
+
+    /// Where the tool pulls the grabbed nodes' centroid (m).
+    #[must_use]
+    pub fn tool_target(&self) -> Vec3 {
+        self.hdr.tool.target
+    }
+
+    /// Moves the tool target (m). A non-finite target is refused and nothing changes.
+    pub fn set_tool_target(&mut self, target: Vec3) -> Result<(), crate::StepError> {
+        if !crate::math::is_finite3(target) {
+            return Err(crate::StepError::NonFiniteInput);
+        }
+        self.hdr.tool.target = target;
+        Ok(())
+    }
+
+    /// One haptic-loop step: moves the tool target to `target` (m), steps,
+    /// and returns the statistics with the force the body exerts on the tool
+    /// (`StepStats::tool_force`, N) — what the device renders.
+    pub fn step_haptic(&mut self, target: Vec3) -> Result<crate::StepStats, crate::StepError> {
+        self.set_tool_target(target)?;
+        self.step()
+    }
+}
