@@ -192,3 +192,65 @@ pub(crate) fn forces(
         Method::Linear => linear::forces(du, &cur, &el.rest_grad, el.lame),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::{scale, sub};
+
+    /// At rest the stiffness product equals the derivative of the forces (the
+    /// tangent stiffness has no geometric term there): central differences.
+    #[test]
+    fn stiffness_product_is_the_force_derivative_at_rest() {
+        let x = [
+            [0.1f32, -0.2, 0.05],
+            [1.3, 0.1, -0.2],
+            [0.2, 1.1, 0.3],
+            [0.4, 0.3, 1.2],
+        ];
+        let rest = [sub(x[1], x[0]), sub(x[2], x[0]), sub(x[3], x[0])];
+        let fr = qr::frame(rest[0], rest[1], rest[2]);
+        let lame = [1.0f32, 0.5];
+        let mut el = Element {
+            rest: fr.local,
+            lame,
+            ..Element::EMPTY
+        };
+        let out = qr::forces::<true>(rest[0], rest[1], rest[2], &fr.local, lame);
+        el.grad = out.grad;
+        #[cfg(any(feature = "polar", feature = "linear"))]
+        {
+            el.rest_grad = out.grad;
+        }
+        let d = [
+            [0.3f32, -0.1, 0.2],
+            [-0.2, 0.4, 0.1],
+            [0.1, 0.2, -0.3],
+            [0.05, -0.25, 0.15],
+        ];
+        let kd = hform::stiffness_product(&d, &el.grad, lame);
+        let eps = 1e-3f32;
+        for &m in Method::ALL {
+            let f_at = |s: f32| {
+                let du = [
+                    scale(sub(d[1], d[0]), s),
+                    scale(sub(d[2], d[0]), s),
+                    scale(sub(d[3], d[0]), s),
+                ];
+                forces(m, &mut el.clone(), &rest, &du).f
+            };
+            let (fp, fm) = (f_at(eps), f_at(-eps));
+            for i in 0..3 {
+                for k in 0..3 {
+                    let fd = (fp[i][k] - fm[i][k]) / (2.0 * eps);
+                    // Central difference error O(eps²) plus f32 round-off / eps.
+                    assert!(
+                        (fd - kd[i][k]).abs() < 2e-3,
+                        "{m:?} node {i} comp {k}: fd {fd} vs K d {}",
+                        kd[i][k]
+                    );
+                }
+            }
+        }
+    }
+}

@@ -70,15 +70,124 @@ fn rt_times(r: &Mat3, f: &Mat3) -> Mat3 {
     m
 }
 
-/// Updates `q` in place to the rotation closest to `f`; returns `Rᵀ F` for the
-/// final rotation (the caller needs it for the strain).
+/// Updates `q` in place to the rotation closest to `f`; returns `R` and
+/// `Rᵀ F` for the final rotation (the caller needs it for the strain).
+///
+/// Newton from the warm start first (1–2 iterations in a simulation); if it
+/// does not end at the maximum (large rotation since the last step, a cold
+/// start, an inversion), Horn's quaternion method finds the global maximum
+/// and Newton polishes it.
 #[must_use]
 pub(crate) fn closest_rotation(f: &Mat3, q: &mut [f32; 4]) -> (Mat3, Mat3) {
+    let out = newton(f, q);
+    if out.2 {
+        return (out.0, out.1);
+    }
+    *q = horn(f, *q);
+    let out = newton(f, q);
+    (out.0, out.1)
+}
+
+/// Horn's closed form: the unit quaternion maximising `tr(R(q)ᵀ F) = qᵀ N q`
+/// is the eigenvector of the symmetric 4×4 `N` with the largest eigenvalue,
+/// found with cyclic Jacobi rotations (deterministic, always converges).
+/// The sign is chosen to agree with `prev`.
+#[must_use]
+fn horn(f: &Mat3, prev: [f32; 4]) -> [f32; 4] {
+    let [[fxx, fxy, fxz], [fyx, fyy, fyz], [fzx, fzy, fzz]] = *f;
+    let mut a = [
+        [fxx + fyy + fzz, fzy - fyz, fxz - fzx, fyx - fxy],
+        [fzy - fyz, fxx - fyy - fzz, fxy + fyx, fxz + fzx],
+        [fxz - fzx, fxy + fyx, fyy - fxx - fzz, fyz + fzy],
+        [fyx - fxy, fxz + fzx, fyz + fzy, fzz - fxx - fyy],
+    ];
+    let mut v = [
+        [1.0f32, 0.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0, 0.0],
+        [0.0, 0.0, 1.0, 0.0],
+        [0.0, 0.0, 0.0, 1.0],
+    ];
+    let scale2 = a.iter().flatten().fold(0.0f32, |s, x| s + x * x);
+    for _sweep in 0..12 {
+        let off2 = 2.0
+            * (a[0][1] * a[0][1]
+                + a[0][2] * a[0][2]
+                + a[0][3] * a[0][3]
+                + a[1][2] * a[1][2]
+                + a[1][3] * a[1][3]
+                + a[2][3] * a[2][3]);
+        if !(off2 > f32::EPSILON * f32::EPSILON * scale2) {
+            break;
+        }
+        for (p, r) in [(0usize, 1usize), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)] {
+            jacobi_rotate(&mut a, &mut v, p, r);
+        }
+    }
+    let mut best = 0;
+    for k in 1..4 {
+        if a[k][k] > a[best][best] {
+            best = k;
+        }
+    }
+    let mut q = [v[0][best], v[1][best], v[2][best], v[3][best]];
+    if q[0] * prev[0] + q[1] * prev[1] + q[2] * prev[2] + q[3] * prev[3] < 0.0 {
+        q = [-q[0], -q[1], -q[2], -q[3]];
+    }
+    let len2 = q.iter().fold(0.0f32, |s, x| s + x * x);
+    if !(len2 >= f32::MIN_POSITIVE && len2.is_finite()) {
+        return prev;
+    }
+    let inv = 1.0 / sqrt(len2);
+    [q[0] * inv, q[1] * inv, q[2] * inv, q[3] * inv]
+}
+
+/// One Jacobi rotation zeroing `a[p][r]` of the symmetric `a`; accumulates
+/// the rotation into the eigenvector columns of `v`.
+fn jacobi_rotate(a: &mut [[f32; 4]; 4], v: &mut [[f32; 4]; 4], p: usize, r: usize) {
+    let apr = a[p][r];
+    if apr == 0.0 {
+        return;
+    }
+    // θ = (a_rr − a_pp) / (2 a_pr), t = sign(θ) / (|θ| + √(θ² + 1)).
+    let theta = (a[r][r] - a[p][p]) / (2.0 * apr);
+    let t = if theta.is_finite() {
+        let t = 1.0 / (theta.abs() + sqrt(theta * theta + 1.0));
+        if theta < 0.0 {
+            -t
+        } else {
+            t
+        }
+    } else {
+        0.0
+    };
+    let c = 1.0 / sqrt(t * t + 1.0);
+    let s = t * c;
+    for k in 0..4 {
+        let (akp, akr) = (a[k][p], a[k][r]);
+        a[k][p] = c * akp - s * akr;
+        a[k][r] = s * akp + c * akr;
+    }
+    for k in 0..4 {
+        let (apk, ark) = (a[p][k], a[r][k]);
+        a[p][k] = c * apk - s * ark;
+        a[r][k] = s * apk + c * ark;
+    }
+    for row in v.iter_mut() {
+        let (vp, vr) = (row[p], row[r]);
+        row[p] = c * vp - s * vr;
+        row[r] = s * vp + c * vr;
+    }
+}
+
+/// Newton's method from `q`; returns `R`, `Rᵀ F` and whether it ended at the
+/// maximum (skew part at the noise floor with a positive definite Hessian).
+#[must_use]
+fn newton(f: &Mat3, q: &mut [f32; 4]) -> (Mat3, Mat3, bool) {
     let mut r = rotation(*q);
     let mut m = rt_times(&r, f);
     let norm2 = f.iter().flatten().fold(0.0f32, |s, v| s + v * v);
     if !(norm2 >= f32::MIN_POSITIVE && norm2.is_finite()) {
-        return (r, m);
+        return (r, m, true);
     }
     let norm = sqrt(norm2);
     // Stop at the f32 noise floor of forming M (a few ulps of ‖F‖) or when the
@@ -112,7 +221,7 @@ pub(crate) fn closest_rotation(f: &Mat3, q: &mut [f32; 4]) -> (Mat3, Mat3) {
             // Near the maximum: Newton, until the skew part reaches the noise
             // floor or stops shrinking.
             if w2 <= floor2 || w2 >= 0.25 * last2 || !w2.is_finite() {
-                break;
+                return (r, m, w2 <= 64.0 * floor2);
             }
             last2 = w2;
             match solve3(&h, w) {
@@ -132,7 +241,7 @@ pub(crate) fn closest_rotation(f: &Mat3, q: &mut [f32; 4]) -> (Mat3, Mat3) {
             } else if w2 > floor2 && w2.is_finite() {
                 Step::Turn([-w[0] / norm, -w[1] / norm, -w[2] / norm])
             } else {
-                break;
+                return (r, m, false);
             }
         };
         // q ← q ⊗ p with p = (1, θ/2) (normalised below) or a half turn (0, e_k).
@@ -155,14 +264,14 @@ pub(crate) fn closest_rotation(f: &Mat3, q: &mut [f32; 4]) -> (Mat3, Mat3) {
         ];
         let len2 = n[0] * n[0] + n[1] * n[1] + n[2] * n[2] + n[3] * n[3];
         if !(len2 >= f32::MIN_POSITIVE && len2.is_finite()) {
-            break;
+            return (r, m, false);
         }
         let inv = 1.0 / sqrt(len2);
         *q = [n[0] * inv, n[1] * inv, n[2] * inv, n[3] * inv];
         r = rotation(*q);
         m = rt_times(&r, f);
     }
-    (r, m)
+    (r, m, false)
 }
 
 /// Element forces of the polar method.
@@ -274,5 +383,59 @@ mod tests {
         let (r, _) = closest_rotation(&[[0.0; 3]; 3], &mut q);
         assert_eq!(q, IDENTITY);
         assert_rotation(&r);
+    }
+}
+
+#[cfg(test)]
+mod convergence {
+    use super::*;
+
+    /// Large rotations and random (also inverted) stretches from a cold start.
+    #[test]
+    fn converges_from_identity_for_random_gradients() {
+        let mut seed = 12345u32;
+        let mut rnd = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 17;
+            seed ^= seed << 5;
+            (seed as f32 / u32::MAX as f32) * 2.0 - 1.0
+        };
+        let mut worst = 0.0f32;
+        let mut worst_it = 0;
+        for _ in 0..2000 {
+            let f = [
+                [rnd(), rnd(), rnd()],
+                [rnd(), rnd(), rnd()],
+                [rnd(), rnd(), rnd()],
+            ];
+            let mut q = IDENTITY;
+            let (_, m) = closest_rotation(&f, &mut q);
+            let norm = f.iter().flatten().map(|v| v * v).sum::<f32>().sqrt();
+            let skew = ((m[0][1] - m[1][0]).powi(2)
+                + (m[1][2] - m[2][1]).powi(2)
+                + (m[2][0] - m[0][2]).powi(2))
+            .sqrt()
+                / norm;
+            if skew > worst {
+                worst = skew;
+                worst_it += 1;
+            }
+        }
+        assert!(worst < 1e-5, "worst relative skew {worst} ({worst_it})");
+    }
+}
+
+#[cfg(test)]
+mod horn_tests {
+    use super::*;
+
+    #[test]
+    fn horn_recovers_a_pure_rotation() {
+        let q0 = [0.5f32, 0.5, -0.5, 0.5];
+        let f = rotation(q0);
+        let q = horn(&f, IDENTITY);
+        for k in 0..4 {
+            assert!((q[k] - q0[k]).abs() < 1e-5, "{q:?} vs {q0:?}"); // f32 Jacobi round-off
+        }
     }
 }

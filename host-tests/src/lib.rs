@@ -1,0 +1,198 @@
+//! Shared helpers for the host tests: heap storage for big scenes, the shared
+//! meshes, generated boxes and small f64 vector maths for checking.
+
+use std::path::PathBuf;
+
+use corofem::{BoxMesh, BuildOptions, Element, Material, Node, NodeWork, Scene, Storage};
+
+/// Scene storage in vectors, sized at run time.
+pub struct HeapStorage {
+    nodes: Vec<Node>,
+    work: Vec<NodeWork>,
+    elems: Vec<Element>,
+}
+
+impl HeapStorage {
+    /// Room for `nodes` nodes and `elems` tetrahedra.
+    pub fn new(nodes: usize, elems: usize) -> Self {
+        Self {
+            nodes: vec![Node::EMPTY; nodes],
+            work: vec![NodeWork::EMPTY; nodes],
+            elems: vec![Element::EMPTY; elems],
+        }
+    }
+}
+
+impl Storage for HeapStorage {
+    fn parts(&self) -> (&[Node], &[Element]) {
+        (&self.nodes, &self.elems)
+    }
+    fn parts_mut(&mut self) -> (&mut [Node], &mut [NodeWork], &mut [Element]) {
+        (&mut self.nodes, &mut self.work, &mut self.elems)
+    }
+}
+
+/// A scene on the heap.
+pub type HeapScene = Scene<HeapStorage>;
+
+/// A mesh in the core's input form.
+#[derive(Clone, Debug)]
+pub struct CoreMesh {
+    /// Node positions (m).
+    pub nodes: Vec<[f32; 3]>,
+    /// Tetrahedra.
+    pub tets: Vec<[u32; 4]>,
+}
+
+impl CoreMesh {
+    /// Builds a scene of exactly this mesh's size.
+    pub fn scene(&self, material: &Material) -> HeapScene {
+        let mut s = Scene::with_storage(HeapStorage::new(self.nodes.len(), self.tets.len()));
+        s.build(&self.nodes, &self.tets, material, BuildOptions::default())
+            .expect("valid mesh");
+        s
+    }
+
+    /// Indices of the nodes for which `pred(position)` holds.
+    pub fn select(&self, pred: impl Fn([f32; 3]) -> bool) -> Vec<u32> {
+        (0..self.nodes.len() as u32)
+            .filter(|&i| pred(self.nodes[i as usize]))
+            .collect()
+    }
+}
+
+/// The shared mesh folder, if present (`../shared/meshes` from the workspace).
+pub fn shared_meshes() -> Option<PathBuf> {
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/meshes");
+    dir.is_dir().then_some(dir)
+}
+
+/// Loads a shared mesh by file name, or prints a SKIPPED notice and returns
+/// `None` when the shared folder is absent.
+pub fn shared_mesh(name: &str) -> Option<CoreMesh> {
+    let Some(dir) = shared_meshes() else {
+        eprintln!("SKIPPED: ../shared/meshes not found, test needing {name} did not run");
+        return None;
+    };
+    let mesh = corofem_io::read_mesh(&dir.join(name)).expect("shared mesh reads");
+    Some(CoreMesh {
+        nodes: mesh
+            .nodes
+            .iter()
+            .map(|p| [p[0] as f32, p[1] as f32, p[2] as f32])
+            .collect(),
+        tets: mesh
+            .tets
+            .iter()
+            .map(|t| [t[0] as u32, t[1] as u32, t[2] as u32, t[3] as u32])
+            .collect(),
+    })
+}
+
+/// A generated box mesh.
+pub fn box_mesh(size: [f32; 3], cells: [u32; 3], tets_per_cell: u8) -> CoreMesh {
+    let b = BoxMesh {
+        size,
+        cells,
+        tets_per_cell,
+    };
+    let mut nodes = vec![[0.0; 3]; b.node_count()];
+    let mut tets = vec![[0; 4]; b.tet_count()];
+    b.generate(&mut nodes, &mut tets).expect("valid box");
+    CoreMesh { nodes, tets }
+}
+
+/// f64 helpers for checks.
+pub mod f64v {
+    /// `a × b`.
+    pub fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+        [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ]
+    }
+    /// `|a|`.
+    pub fn norm(a: [f64; 3]) -> f64 {
+        (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt()
+    }
+    /// f32 → f64.
+    pub fn up(a: [f32; 3]) -> [f64; 3] {
+        [a[0] as f64, a[1] as f64, a[2] as f64]
+    }
+    /// Rotation matrix (rows) of angle `angle` (rad) about the unit axis `a`.
+    pub fn rotation(a: [f64; 3], angle: f64) -> [[f64; 3]; 3] {
+        let (s, c) = angle.sin_cos();
+        let t = 1.0 - c;
+        let [x, y, z] = a;
+        [
+            [t * x * x + c, t * x * y - s * z, t * x * z + s * y],
+            [t * x * y + s * z, t * y * y + c, t * y * z - s * x],
+            [t * x * z - s * y, t * y * z + s * x, t * z * z + c],
+        ]
+    }
+    /// `R v`.
+    pub fn rot(r: &[[f64; 3]; 3], v: [f64; 3]) -> [f64; 3] {
+        [
+            r[0][0] * v[0] + r[0][1] * v[1] + r[0][2] * v[2],
+            r[1][0] * v[0] + r[1][1] * v[1] + r[1][2] * v[2],
+            r[2][0] * v[0] + r[2][1] * v[1] + r[2][2] * v[2],
+        ]
+    }
+}
+
+/// Net force `Σ f` and net torque `Σ x × f` (about the origin) in f64, and
+/// the scale `Σ |f|` and `Σ |x| |f|` they should be compared with.
+pub fn net_force_torque(
+    positions: &[[f32; 3]],
+    forces: &[[f32; 3]],
+) -> ([f64; 3], [f64; 3], f64, f64) {
+    let (mut f, mut t, mut fs, mut ts) = ([0.0f64; 3], [0.0f64; 3], 0.0, 0.0);
+    for (x, fi) in positions.iter().zip(forces) {
+        let (x, fi) = (f64v::up(*x), f64v::up(*fi));
+        let c = f64v::cross(x, fi);
+        for k in 0..3 {
+            f[k] += fi[k];
+            t[k] += c[k];
+        }
+        fs += f64v::norm(fi);
+        ts += f64v::norm(x) * f64v::norm(fi);
+    }
+    (f, t, fs, ts)
+}
+
+/// A small deterministic pseudo-random generator (xorshift64*), so tests need
+/// no extra crate and give the same numbers everywhere.
+pub struct Rng(u64);
+
+impl Rng {
+    /// Seeded generator.
+    pub fn new(seed: u64) -> Self {
+        Self(seed.max(1))
+    }
+    /// Uniform in `[0, 1)`.
+    pub fn next_f64(&mut self) -> f64 {
+        self.0 ^= self.0 >> 12;
+        self.0 ^= self.0 << 25;
+        self.0 ^= self.0 >> 27;
+        (self.0.wrapping_mul(0x2545_f491_4f6c_dd1d) >> 11) as f64 / (1u64 << 53) as f64
+    }
+    /// Uniform in `[lo, hi)`.
+    pub fn range(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * self.next_f64()
+    }
+    /// A random unit vector.
+    pub fn unit(&mut self) -> [f64; 3] {
+        loop {
+            let v = [
+                self.range(-1.0, 1.0),
+                self.range(-1.0, 1.0),
+                self.range(-1.0, 1.0),
+            ];
+            let n = f64v::norm(v);
+            if n > 0.1 && n <= 1.0 {
+                return [v[0] / n, v[1] / n, v[2] / n];
+            }
+        }
+    }
+}
