@@ -1,8 +1,9 @@
 //! Static sag of a cantilever against an independent linear FEM solution
-//! (scikit-fem, host-tests/reference) and Euler–Bernoulli theory.
+//! (scikit-fem, stored with its script in host-tests/reference) and against
+//! beam theory.
 
-use corofem::{Material, Settings, StaticSettings};
-use corofem_host_tests::shared_mesh;
+use corofem::{Material, Method, Settings, StaticSettings};
+use corofem_host_tests::{shared_mesh, CoreMesh};
 
 fn reference() -> serde_json::Value {
     let text = std::fs::read_to_string(concat!(
@@ -13,9 +14,9 @@ fn reference() -> serde_json::Value {
     serde_json::from_str(&text).unwrap()
 }
 
-/// Mean z-displacement of the free end under gravity (m).
-fn tip_sag(mesh_name: &str) -> Option<f64> {
-    let mesh = shared_mesh(&format!("{mesh_name}.tetmesh"))?;
+/// Static displacements of the beam clamped at x = 0 under gravity (m), E = 1e9,
+/// ν = 0.3, ρ = 1000, as in the reference script.
+fn static_sag(mesh: &CoreMesh, method: Method) -> Vec<[f32; 3]> {
     let material = Material {
         young: 1.0e9,
         poisson: 0.3,
@@ -25,43 +26,104 @@ fn tip_sag(mesh_name: &str) -> Option<f64> {
     scene.fix_nodes(&mesh.select(|p| p[0] <= 1e-6)).unwrap();
     scene
         .set_settings(Settings {
+            method,
             gravity: [0.0, 0.0, -9.81],
             ..Settings::default()
         })
         .unwrap();
     let last = scene
-        .solve_static(&StaticSettings::default(), |it| {
-            eprintln!("{mesh_name}: {it:?}")
-        })
+        .solve_static(&StaticSettings::default(), |_| {})
         .unwrap();
-    assert!(last.converged, "{mesh_name}: {last:?}");
-    let tip = mesh.select(|p| p[0] >= 10.0 - 1e-6);
-    Some(
-        tip.iter()
-            .map(|&i| scene.displacement(i as usize).unwrap()[2] as f64)
-            .sum::<f64>()
-            / tip.len() as f64,
-    )
+    assert!(last.converged, "{last:?}");
+    (0..mesh.nodes.len())
+        .map(|i| scene.displacement(i).unwrap())
+        .collect()
 }
 
+/// Mean z-displacement of the free end x = 10 (m).
+fn tip(mesh: &CoreMesh, u: &[[f32; 3]]) -> f64 {
+    let tip = mesh.select(|p| p[0] >= 10.0 - 1e-6);
+    tip.iter().map(|&i| u[i as usize][2] as f64).sum::<f64>() / tip.len() as f64
+}
+
+const MESHES: [&str; 5] = [
+    "beam_10x2x2_h1_t6",
+    "beam_10x2x2_h1_t5",
+    "beam_10x2x2_h05_t6",
+    "beam_10x2x2_h05_t5",
+    "beam_10x2x2_h025_t6",
+];
+
 #[test]
-fn cantilever_sag_matches_linear_fem() {
+fn linear_method_reproduces_the_reference_fem_node_by_node() {
     let r = reference();
-    for name in [
-        "beam_10x2x2_h1_t6",
-        "beam_10x2x2_h1_t5",
-        "beam_10x2x2_h05_t6",
-        "beam_10x2x2_h05_t5",
-        "beam_10x2x2_h025_t6",
-    ] {
-        let Some(sag) = tip_sag(name) else { return };
+    for name in MESHES {
+        let Some(mesh) = shared_mesh(&format!("{name}.tetmesh")) else {
+            return;
+        };
+        let u = static_sag(&mesh, Method::Linear);
+        let csv = std::fs::read_to_string(format!(
+            "{}/reference/cantilever_{name}_gravity.csv",
+            env!("CARGO_MANIFEST_DIR")
+        ))
+        .unwrap();
+        let mut worst = 0.0f64;
+        for line in csv.lines().skip(1) {
+            let v: Vec<f64> = line.split(',').map(|s| s.parse().unwrap()).collect();
+            let i = v[0] as usize;
+            for k in 0..3 {
+                worst = worst.max((u[i][k] as f64 - v[1 + k]).abs());
+            }
+        }
         let want = r["meshes"][name]["gravity"]["tip_uz_mean"]
             .as_f64()
             .unwrap();
-        let rel = (sag - want).abs() / want.abs();
         eprintln!(
-            "{name}: corofem {sag:.6e}, scikit-fem {want:.6e}, relative difference {rel:.2e}"
+            "{name} Linear: largest nodal difference {worst:.2e} m of a {:.3e} m sag",
+            want.abs()
         );
-        assert!(rel < 1e-3, "{name}: {rel}");
+        // Same discretisation, so only f32 round-off remains: the linear
+        // method has no co-rotation noise floor and its Newton loop reaches the
+        // f32 limit (measured ≤ 5e-7 relative). Bound: 1e-5 relative.
+        assert!(worst < 1e-5 * want.abs(), "{name}: {worst}");
     }
+}
+
+#[test]
+fn corotational_sag_matches_the_reference_fem_and_beam_theory() {
+    let r = reference();
+    for name in MESHES {
+        let Some(mesh) = shared_mesh(&format!("{name}.tetmesh")) else {
+            return;
+        };
+        let want = r["meshes"][name]["gravity"]["tip_uz_mean"]
+            .as_f64()
+            .unwrap();
+        for method in [Method::Qr, Method::Polar] {
+            let sag = tip(&mesh, &static_sag(&mesh, method));
+            let rel = (sag - want).abs() / want.abs();
+            eprintln!("{name} {method:?}: tip {sag:.6e} m, scikit-fem (linear) {want:.6e} m, relative difference {rel:.2e}");
+            // The co-rotational answer differs from the linear one at second
+            // order in the rotation (sag/length ≈ 3.5e-3, squared ≈ 1e-5), plus
+            // the f32 force noise floor of the co-rotated local coordinates and
+            // the static solve's stopping rule (update < 1e-4): bound 5e-4.
+            assert!(rel < 5e-4, "{name} {method:?}: {rel}");
+        }
+    }
+    // The finest mesh against Euler–Bernoulli: linear tetrahedra are too stiff
+    // in bending and the beam is stubby (L/h = 5, so shear adds ~4%), so the FE
+    // sag is below theory; measured 4.4% below Euler–Bernoulli.
+    let Some(mesh) = shared_mesh("beam_10x2x2_h025_t6.tetmesh") else {
+        return;
+    };
+    let sag = tip(&mesh, &static_sag(&mesh, Method::Qr));
+    let eb = r["analytical"]["gravity"]["euler_bernoulli_tip_uz"]
+        .as_f64()
+        .unwrap();
+    let rel = (sag - eb) / eb;
+    eprintln!(
+        "beam_10x2x2_h025_t6 Qr: tip {sag:.5e} m, Euler–Bernoulli {eb:.5e} m, {:.1}% below",
+        -100.0 * rel
+    );
+    assert!(rel < 0.0 && rel > -0.06, "{rel}");
 }
