@@ -59,10 +59,24 @@ pub(crate) fn step(v: View<'_>) -> Result<StepStats, StepError> {
     hdr.inverted = totals.inverted;
 
     // Node pass: right-hand side, preconditioner, constraints, initial guess.
+    //
+    // Initial guess. CG truncated after a few iterations scales each part of
+    // the right-hand side differently, including the uniform part `h M g`,
+    // so a falling body would feel a fraction of gravity. A uniform velocity
+    // change is an exact eigenvector of A (K of a translation is zero, bit for
+    // bit, since every element sees equal node values), so when no node is
+    // fixed we start from the free-fall change `c = h g / (1 + h α_M)` and CG
+    // only has the rest to do. Fixed bodies start from zero (or the warm start).
+    let any_fixed = nodes.iter().any(|n| n.flags & FIXED != 0);
+    let fall = if any_fixed {
+        [0.0; 3]
+    } else {
+        scale(s.gravity, h / mass_coef)
+    };
     #[allow(unused_mut)] // only the ground counts held nodes
     let mut held = 0u32;
-    let mut constrained = false;
-    let mut guess = false;
+    #[allow(unused_mut)] // only the ground and the tool set it
+    let mut isolated = !any_fixed;
     for (n, w) in nodes.iter_mut().zip(work.iter_mut()) {
         let m = n.mass;
         let mut f = add(add(w.r, n.f_ext), scale(s.gravity, m));
@@ -76,14 +90,13 @@ pub(crate) fn step(v: View<'_>) -> Result<StepStats, StepError> {
             f = add(f, scale(sub(tool.anchor(n.grab), n.position()), k));
             f = axpy(f, -h * k, n.v);
             p += h * h * k;
-            constrained = true;
+            isolated = false;
         }
         w.r = axpy(scale(f, h), k_coef, w.q);
         n.flags &= !CONTACT;
         if n.flags & FIXED != 0 {
             w.inv_p = 0.0;
             w.x = [0.0; 3];
-            constrained = true;
             continue;
         }
         w.inv_p = 1.0 / p;
@@ -95,16 +108,35 @@ pub(crate) fn step(v: View<'_>) -> Result<StepStats, StepError> {
             let dist = g.distance(n.position());
             if n.flags & RELEASED == 0 && dist <= 0.0 && dot(g.normal, n.v) <= 0.0 {
                 n.flags |= CONTACT;
-                w.x = g.with_normal(w.x, g.held_dv(dist, n.v, h));
                 held += 1;
-                constrained = true;
+                isolated = false;
             }
+        }
+    }
+    if s.warm_start && isolated {
+        // The warm start keeps no momentum of its own; the free fall adds the
+        // exact impulse of gravity below.
+        remove_momentum(nodes, work);
+    }
+    // Add the free fall to the guess and prescribe the held normals.
+    let mut guess = false;
+    for (n, w) in nodes.iter().zip(work.iter_mut()) {
+        if n.flags & FIXED != 0 {
+            continue;
+        }
+        w.x = if s.warm_start && !isolated {
+            w.x
+        } else {
+            add(w.x, fall)
+        };
+        #[cfg(feature = "ground")]
+        if let (Some(g), true) = (ground, n.flags & CONTACT != 0) {
+            w.x = g.with_normal(w.x, g.held_dv(g.distance(n.position()), n.v, h));
         }
         guess |= w.x != [0.0; 3];
     }
-    if s.warm_start && !constrained {
-        remove_momentum(nodes, work);
-    }
+    // A uniform guess needs no element pass for `r = b − A x₀`.
+    let uniform = isolated && !s.warm_start;
 
     // A d = (1 + h α_M) M d + h (α_K + h) K d (+ h² k/n d on grabbed nodes).
     let apply = |work: &mut [NodeWork]| {
@@ -132,7 +164,12 @@ pub(crate) fn step(v: View<'_>) -> Result<StepStats, StepError> {
         let _ = i;
         z
     };
-    if guess {
+    if guess && uniform {
+        // r = b − (1 + h α_M) M c: K c = 0 exactly for the uniform c.
+        for (n, w) in nodes.iter().zip(work.iter_mut()) {
+            w.r = axpy(w.r, -mass_coef * n.mass, w.x);
+        }
+    } else if guess {
         // r = b − A x₀.
         for w in work.iter_mut() {
             w.d = w.x;

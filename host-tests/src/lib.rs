@@ -3,37 +3,9 @@
 
 use std::path::PathBuf;
 
-use corofem::{BoxMesh, BuildOptions, Element, Material, Node, NodeWork, Scene, Storage};
+use corofem::{BoxMesh, BuildOptions, Material};
 
-/// Scene storage in vectors, sized at run time.
-pub struct HeapStorage {
-    nodes: Vec<Node>,
-    work: Vec<NodeWork>,
-    elems: Vec<Element>,
-}
-
-impl HeapStorage {
-    /// Room for `nodes` nodes and `elems` tetrahedra.
-    pub fn new(nodes: usize, elems: usize) -> Self {
-        Self {
-            nodes: vec![Node::EMPTY; nodes],
-            work: vec![NodeWork::EMPTY; nodes],
-            elems: vec![Element::EMPTY; elems],
-        }
-    }
-}
-
-impl Storage for HeapStorage {
-    fn parts(&self) -> (&[Node], &[Element]) {
-        (&self.nodes, &self.elems)
-    }
-    fn parts_mut(&mut self) -> (&mut [Node], &mut [NodeWork], &mut [Element]) {
-        (&mut self.nodes, &mut self.work, &mut self.elems)
-    }
-}
-
-/// A scene on the heap.
-pub type HeapScene = Scene<HeapStorage>;
+pub use corofem_io::{HeapScene, HeapStorage};
 
 /// A mesh in the core's input form.
 #[derive(Clone, Debug)]
@@ -47,7 +19,7 @@ pub struct CoreMesh {
 impl CoreMesh {
     /// Builds a scene of exactly this mesh's size.
     pub fn scene(&self, material: &Material) -> HeapScene {
-        let mut s = Scene::with_storage(HeapStorage::new(self.nodes.len(), self.tets.len()));
+        let mut s = corofem_io::heap_scene(self.nodes.len(), self.tets.len());
         s.build(&self.nodes, &self.tets, material, BuildOptions::default())
             .expect("valid mesh");
         s

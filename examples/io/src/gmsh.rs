@@ -1,0 +1,775 @@
+//! Gmsh `.msh` files: MSH 4.1 (ASCII and binary) through the `mshio` crate, and
+//! MSH 2.x ASCII and the old MSH 1.0 by hand.
+//!
+//! `mshio` reads only MSH 4.1. The crates that claim MSH 2 support (`rutile`
+//! 0.1.1, `msh-rw` 0.1.0) are unmaintained since 2020–2021 and describe their MSH 2
+//! support as incomplete or "work in progress", so the ASCII MSH 2 reader below is
+//! hand-written. It is small because only two sections matter (`$Nodes`,
+//! `$Elements`); every other section is skipped. MSH 1.0 (`$NOD` / `$ELM`, e.g.
+//! SOFA's `liver.msh`) has the same structure and shares the code. Binary MSH 2 is
+//! not read ([`MeshError::Unsupported`]).
+//!
+//! For MSH 4.1, `mshio` does the parsing and error reporting. Two small scans of
+//! the raw bytes surround it: one refuses absurd section counts before `mshio`
+//! allocates, and one reads the node tags in file order, because `mshio` keeps
+//! tags only when they are sparse (and then in a hash map), assuming dense tags are
+//! listed in increasing order, which the format does not promise.
+//!
+//! In every version only 4-node tetrahedra (element type 4) are kept; points,
+//! lines, triangles and other types are skipped. Node tags are arbitrary positive
+//! integers: they are mapped to 0-based indices in the order the nodes appear in
+//! the file. Nodes that no tetrahedron uses are kept (see
+//! [`drop_unused_nodes`](crate::drop_unused_nodes)).
+
+use std::collections::HashMap;
+
+use mshio::mshfile::ElementType;
+
+use crate::error::{check_count, MeshError};
+use crate::guard::catch_quietly;
+use crate::mesh::Mesh;
+use crate::text::{plural, shorten, tokens, LineReader};
+
+/// Gmsh element type number of the 4-node tetrahedron.
+const GMSH_TET4: u64 = 4;
+
+/// The MSH version a file declares.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Version {
+    /// MSH 1.0 (`$NOD` ... `$ELM`).
+    V1,
+    /// MSH 2.x ASCII.
+    V2Ascii,
+    /// MSH 4.1, ASCII or binary.
+    V41,
+}
+
+/// Parses the bytes of a Gmsh `.msh` file of version 1.0, 2.x (ASCII) or 4.1 (ASCII
+/// or binary); the version is detected from the `$MeshFormat` header (MSH 1.0 has
+/// none and starts with `$NOD`).
+///
+/// `name` is only used in error messages (normally the file name). Declared node
+/// and element counts are checked against [`MAX_COUNT`](crate::MAX_COUNT) before
+/// anything is allocated for them.
+pub fn parse_msh(bytes: &[u8], name: &str) -> Result<Mesh, MeshError> {
+    match detect_version(bytes, name)? {
+        Version::V1 => parse_legacy_ascii(utf8(bytes, name)?, name, Version::V1),
+        Version::V2Ascii => parse_legacy_ascii(utf8(bytes, name)?, name, Version::V2Ascii),
+        Version::V41 => parse_v41(bytes, name),
+    }
+}
+
+fn utf8<'a>(bytes: &'a [u8], name: &str) -> Result<&'a str, MeshError> {
+    std::str::from_utf8(bytes).map_err(|e| {
+        let line = 1 + bytes[..e.valid_up_to()]
+            .iter()
+            .filter(|&&b| b == b'\n')
+            .count();
+        MeshError::Malformed {
+            file: name.to_owned(),
+            line: Some(line),
+            expected: "ASCII text".to_owned(),
+            found: "bytes that are not valid UTF-8".to_owned(),
+        }
+    })
+}
+
+/// The first `n` lines of `bytes` (as lossy text, trimmed) with their line numbers,
+/// skipping blank lines. Only used on the ASCII header of a file.
+fn head_lines(bytes: &[u8], n: usize) -> Vec<(usize, String)> {
+    bytes
+        .split(|&b| b == b'\n')
+        .take(64)
+        .enumerate()
+        .map(|(i, l)| (i + 1, String::from_utf8_lossy(l).trim().to_owned()))
+        .filter(|(_, l)| !l.is_empty())
+        .take(n)
+        .collect()
+}
+
+fn detect_version(bytes: &[u8], name: &str) -> Result<Version, MeshError> {
+    let head = head_lines(bytes, 2);
+    let Some((ln, first)) = head.first() else {
+        return Err(MeshError::Truncated {
+            file: name.to_owned(),
+            line: 1,
+            expected: "\"$MeshFormat\" (Gmsh 2 or 4) or \"$NOD\" (Gmsh 1)".to_owned(),
+        });
+    };
+    if first == "$NOD" {
+        return Ok(Version::V1);
+    }
+    if first != "$MeshFormat" {
+        return Err(MeshError::Malformed {
+            file: name.to_owned(),
+            line: Some(*ln),
+            expected: "\"$MeshFormat\" (Gmsh 2 or 4) or \"$NOD\" (Gmsh 1)".to_owned(),
+            found: format!("\"{}\"", shorten(first)),
+        });
+    }
+    let Some((ln, fmt)) = head.get(1) else {
+        return Err(MeshError::Truncated {
+            file: name.to_owned(),
+            line: ln + 1,
+            expected: "format line \"<version> <file-type> <data-size>\"".to_owned(),
+        });
+    };
+    let ln = Some(*ln);
+    let t = tokens(fmt);
+    if t.len() != 3 {
+        return Err(MeshError::Malformed {
+            file: name.to_owned(),
+            line: ln,
+            expected: "format line \"<version> <file-type> <data-size>\"".to_owned(),
+            found: format!("\"{}\"", shorten(fmt)),
+        });
+    }
+    let binary = match t[1] {
+        "0" => false,
+        "1" => true,
+        other => {
+            return Err(MeshError::Malformed {
+                file: name.to_owned(),
+                line: ln,
+                expected: "file type 0 (ASCII) or 1 (binary)".to_owned(),
+                found: format!("\"{}\"", shorten(other)),
+            })
+        }
+    };
+    // The data size matters for binary files only (mshio panics on odd sizes).
+    if binary && !matches!(t[2], "4" | "8") {
+        return Err(MeshError::Unsupported {
+            file: name.to_owned(),
+            line: ln,
+            what: format!(
+                "data size \"{}\" (only 8, as Gmsh writes, or 4)",
+                shorten(t[2])
+            ),
+        });
+    }
+    let version = t[0];
+    let unsupported = |what: String| MeshError::Unsupported {
+        file: name.to_owned(),
+        line: ln,
+        what: format!(
+            "{what}; readable are MSH 4.1 (ASCII or binary), MSH 2.x ASCII and MSH 1.0 \
+             (in Gmsh: File > Export, format \"Version 4.1\" or \"Version 2 ASCII\")"
+        ),
+    };
+    if version == "4.1" {
+        Ok(Version::V41)
+    } else if version == "2" || version.starts_with("2.") {
+        if binary {
+            Err(unsupported(format!("binary MSH {version}")))
+        } else {
+            Ok(Version::V2Ascii)
+        }
+    } else {
+        Err(unsupported(format!("MSH version {}", shorten(version))))
+    }
+}
+
+// ---------------------------------------------------------------------------
+// MSH 1.0 and 2.x ASCII (hand-written)
+// ---------------------------------------------------------------------------
+
+/// Section markers of the legacy ASCII versions.
+struct Markers {
+    nodes: &'static str,
+    end_nodes: &'static str,
+    elements: &'static str,
+    end_elements: &'static str,
+}
+
+const V1_MARKERS: Markers = Markers {
+    nodes: "$NOD",
+    end_nodes: "$ENDNOD",
+    elements: "$ELM",
+    end_elements: "$ENDELM",
+};
+
+const V2_MARKERS: Markers = Markers {
+    nodes: "$Nodes",
+    end_nodes: "$EndNodes",
+    elements: "$Elements",
+    end_elements: "$EndElements",
+};
+
+/// The nodes of a `$Nodes` section: coordinates in file order and the index of
+/// each tag.
+struct NodeTable {
+    coords: Vec<[f64; 3]>,
+    index_of: HashMap<u64, usize>,
+}
+
+fn parse_legacy_ascii(text: &str, name: &str, version: Version) -> Result<Mesh, MeshError> {
+    let m = if version == Version::V1 {
+        &V1_MARKERS
+    } else {
+        &V2_MARKERS
+    };
+    let mut r = LineReader::new(text, name);
+    let mut nodes: Option<NodeTable> = None;
+    let mut tets: Option<(Vec<[usize; 4]>, usize)> = None;
+
+    while let Some((ln, line)) = r.next_line() {
+        if line == m.nodes {
+            if nodes.is_some() {
+                return Err(MeshError::Unsupported {
+                    file: name.to_owned(),
+                    line: Some(ln),
+                    what: format!("a second {} section", m.nodes),
+                });
+            }
+            nodes = Some(read_nodes(&mut r, ln, m)?);
+        } else if line == m.elements {
+            if tets.is_some() {
+                return Err(MeshError::Unsupported {
+                    file: name.to_owned(),
+                    line: Some(ln),
+                    what: format!("a second {} section", m.elements),
+                });
+            }
+            let Some(NodeTable { index_of: tags, .. }) = &nodes else {
+                return Err(r.malformed(
+                    ln,
+                    format!("the {} section before {}", m.nodes, m.elements),
+                    format!("{} first", m.elements),
+                ));
+            };
+            tets = Some(read_elements(&mut r, ln, m, version, tags)?);
+        } else if let Some(section) = line.strip_prefix('$') {
+            skip_section(&mut r, ln, section)?;
+        } else {
+            return Err(r.malformed(
+                ln,
+                "a section start such as \"$Nodes\"".to_owned(),
+                format!("\"{}\"", shorten(line)),
+            ));
+        }
+    }
+
+    let Some(NodeTable { coords: nodes, .. }) = nodes else {
+        return Err(MeshError::Malformed {
+            file: name.to_owned(),
+            line: None,
+            expected: format!("a {} section", m.nodes),
+            found: "none".to_owned(),
+        });
+    };
+    let (tets, skipped) = tets.unwrap_or_default();
+    if tets.is_empty() {
+        return Err(MeshError::NoTetrahedra {
+            file: name.to_owned(),
+            skipped,
+        });
+    }
+    Ok(Mesh { nodes, tets })
+}
+
+/// Skips an unknown section `$Name` ... `$EndName` (case-insensitively, as MSH 1
+/// writes `$ENDNAME`).
+fn skip_section(r: &mut LineReader<'_>, start: usize, section: &str) -> Result<(), MeshError> {
+    let end = format!("$End{section}");
+    loop {
+        let (_, line) =
+            r.expect_line(|| format!("\"{end}\" closing the section on line {start}"))?;
+        if line.eq_ignore_ascii_case(&end) {
+            return Ok(());
+        }
+    }
+}
+
+/// Reads the count line of a section and checks it against the limit.
+fn read_count(r: &mut LineReader<'_>, what: &str) -> Result<usize, MeshError> {
+    let (ln, line) = r.expect_line(|| format!("the number of {what}s"))?;
+    let t = tokens(line);
+    if t.len() != 1 {
+        return Err(r.malformed(
+            ln,
+            format!("1 value (the number of {what}s)"),
+            plural(t.len(), "value"),
+        ));
+    }
+    let n = r.u64(ln, t[0], || format!("number of {what}s"))?;
+    check_count(r.file(), Some(ln), what, n)
+}
+
+/// After the declared number of entries, checks that the end marker follows.
+fn expect_end(
+    r: &mut LineReader<'_>,
+    end: &str,
+    what: &str,
+    declared: usize,
+) -> Result<(), MeshError> {
+    let (ln, line) = r.expect_line(|| format!("\"{end}\""))?;
+    if line == end {
+        return Ok(());
+    }
+    // Count the surplus entries to say how many there really are.
+    let mut found = declared + 1;
+    while let Some((_, l)) = r.next_line() {
+        if l == end || l.starts_with('$') {
+            break;
+        }
+        found += 1;
+    }
+    Err(MeshError::CountMismatch {
+        file: r.file().to_owned(),
+        line: Some(ln),
+        what: format!("{what}s"),
+        declared,
+        found,
+    })
+}
+
+fn read_nodes(r: &mut LineReader<'_>, start: usize, m: &Markers) -> Result<NodeTable, MeshError> {
+    let n = read_count(r, "node")?;
+    let mut nodes = Vec::with_capacity(n);
+    let mut tags: HashMap<u64, usize> = HashMap::with_capacity(n);
+    for k in 0..n {
+        let (ln, line) = r.expect_line(|| {
+            format!(
+                "node {} of {n} of the {} section on line {start}",
+                k + 1,
+                m.nodes
+            )
+        })?;
+        if line == m.end_nodes {
+            return Err(MeshError::CountMismatch {
+                file: r.file().to_owned(),
+                line: Some(ln),
+                what: "nodes".to_owned(),
+                declared: n,
+                found: k,
+            });
+        }
+        let t = tokens(line);
+        if t.len() != 4 {
+            return Err(r.malformed(
+                ln,
+                "a node \"<tag> <x> <y> <z>\" (4 values)".to_owned(),
+                plural(t.len(), "value"),
+            ));
+        }
+        let tag = r.u64(ln, t[0], || "node tag".to_owned())?;
+        let mut p = [0.0; 3];
+        for (c, (v, tok)) in p.iter_mut().zip(&t[1..]).enumerate() {
+            *v = r.f64(ln, tok, || {
+                format!("{} coordinate of node tag {tag}", ["x", "y", "z"][c])
+            })?;
+        }
+        if let Some(first) = tags.insert(tag, k) {
+            return Err(r.malformed(
+                ln,
+                "a unique node tag".to_owned(),
+                format!(
+                    "tag {tag} again (first used by node {} of the section)",
+                    first + 1
+                ),
+            ));
+        }
+        nodes.push(p);
+    }
+    expect_end(r, m.end_nodes, "node", n)?;
+    Ok(NodeTable {
+        coords: nodes,
+        index_of: tags,
+    })
+}
+
+fn read_elements(
+    r: &mut LineReader<'_>,
+    start: usize,
+    m: &Markers,
+    version: Version,
+    tags: &HashMap<u64, usize>,
+) -> Result<(Vec<[usize; 4]>, usize), MeshError> {
+    let n = read_count(r, "element")?;
+    let mut tets = Vec::new();
+    let mut skipped = 0;
+    for k in 0..n {
+        let (ln, line) = r.expect_line(|| {
+            format!(
+                "element {} of {n} of the {} section on line {start}",
+                k + 1,
+                m.elements
+            )
+        })?;
+        if line == m.end_elements {
+            return Err(MeshError::CountMismatch {
+                file: r.file().to_owned(),
+                line: Some(ln),
+                what: "elements".to_owned(),
+                declared: n,
+                found: k,
+            });
+        }
+        let t = tokens(line);
+        // MSH 2: tag type n-tags <tags...> <nodes...>
+        // MSH 1: number type reg-phys reg-elem n-nodes <nodes...>
+        let (layout, min_len) = if version == Version::V1 {
+            (
+                "\"<number> <type> <reg-phys> <reg-elem> <n-nodes> <nodes...>\"",
+                5,
+            )
+        } else {
+            ("\"<tag> <type> <n-tags> <tags...> <nodes...>\"", 3)
+        };
+        if t.len() < min_len {
+            return Err(r.malformed(ln, format!("an element {layout}"), plural(t.len(), "value")));
+        }
+        r.u64(ln, t[0], || "element tag".to_owned())?;
+        let ty = r.u64(ln, t[1], || "element type".to_owned())?;
+        if ty != GMSH_TET4 {
+            skipped += 1;
+            continue;
+        }
+        let first_node = if version == Version::V1 {
+            let nn = r.u64(ln, t[4], || "number of nodes".to_owned())?;
+            if nn != 4 {
+                return Err(r.malformed(
+                    ln,
+                    "4 nodes for a tetrahedron (type 4)".to_owned(),
+                    format!("{nn}"),
+                ));
+            }
+            5
+        } else {
+            let nt = r.u64(ln, t[2], || "number of tags".to_owned())?;
+            // Bounded by the line length, so no overflow below.
+            3 + nt.min(t.len() as u64) as usize
+        };
+        if t.len() != first_node + 4 {
+            return Err(r.malformed(
+                ln,
+                format!(
+                    "{} values for a tetrahedron (type 4): {layout}",
+                    first_node + 4
+                ),
+                plural(t.len(), "value"),
+            ));
+        }
+        let mut tet = [0usize; 4];
+        for (v, tok) in tet.iter_mut().zip(&t[first_node..]) {
+            let tag = r.u64(ln, tok, || "node tag".to_owned())?;
+            *v = *tags.get(&tag).ok_or_else(|| MeshError::UnknownNodeTag {
+                file: r.file().to_owned(),
+                line: Some(ln),
+                tag,
+            })?;
+        }
+        tets.push(tet);
+    }
+    expect_end(r, m.end_elements, "element", n)?;
+    Ok((tets, skipped))
+}
+
+// ---------------------------------------------------------------------------
+// MSH 4.1 (mshio)
+// ---------------------------------------------------------------------------
+
+/// Reads the two leading counts of the `$Nodes` or `$Elements` section (number of
+/// entity blocks and number of entries) without parsing the rest, so absurd counts
+/// are refused before `mshio` sees them. Returns `None` if the section is absent
+/// or too short; `mshio` then reports the problem.
+fn section_counts(
+    bytes: &[u8],
+    section: &str,
+    binary: Option<(usize, bool)>,
+) -> Option<(usize, u64, u64)> {
+    let rest = section_body(bytes, section)?;
+    // Line number of the counts: the lines before the section body, plus one.
+    let offset = bytes.len() - rest.len();
+    let line = 1 + bytes[..offset].iter().filter(|&&b| b == b'\n').count();
+    match binary {
+        None => {
+            let end = rest.iter().position(|&b| b == b'\n').unwrap_or(rest.len());
+            let text = std::str::from_utf8(&rest[..end]).ok()?;
+            let t = tokens(text);
+            Some((line, t.first()?.parse().ok()?, t.get(1)?.parse().ok()?))
+        }
+        Some((size, big_endian)) => {
+            let read = |i: usize| Some(uint(rest.get(i * size..(i + 1) * size)?, big_endian));
+            Some((line, read(0)?, read(1)?))
+        }
+    }
+}
+
+/// Binary layout of an MSH 4.1 file: `Some((size_t size, big endian))`, or `None`
+/// for ASCII. The header was validated by [`detect_version`].
+fn binary_layout(bytes: &[u8]) -> Option<(usize, bool)> {
+    let head = head_lines(bytes, 2);
+    let t: Vec<String> = head
+        .get(1)?
+        .1
+        .split_ascii_whitespace()
+        .map(str::to_owned)
+        .collect();
+    if t.get(1).map(String::as_str) != Some("1") {
+        return None;
+    }
+    let size: usize = t.get(2)?.parse().ok()?;
+    // The header line is followed by the integer 1 in the file's byte order.
+    let marker = b"\n$EndMeshFormat";
+    let end = bytes.windows(marker.len()).position(|w| w == marker)?;
+    let one = bytes.get(end.checked_sub(4)?..end)?;
+    Some((size, one == [0, 0, 0, 1]))
+}
+
+/// An unsigned integer of `b.len()` (at most 8) bytes.
+fn uint(b: &[u8], big_endian: bool) -> u64 {
+    let fold = |v: u64, &byte: &u8| (v << 8) | u64::from(byte);
+    if big_endian {
+        b.iter().fold(0, fold)
+    } else {
+        b.iter().rev().fold(0, fold)
+    }
+}
+
+/// The file from just after the marker line of section `section` (e.g. `$Nodes`)
+/// to its end.
+fn section_body<'a>(bytes: &'a [u8], section: &str) -> Option<&'a [u8]> {
+    let marker = format!("\n{section}");
+    let pos = bytes
+        .windows(marker.len())
+        .position(|w| w == marker.as_bytes())?;
+    let mut rest = &bytes[pos + marker.len()..];
+    if rest.first() == Some(&b'\r') {
+        rest = &rest[1..];
+    }
+    rest.strip_prefix(b"\n")
+}
+
+/// Reads the node tags of an MSH 4.1 `$Nodes` section in file order, skipping the
+/// coordinates. `None` if the section does not have the expected layout (mshio has
+/// already accepted it, so this means a parametric or otherwise unusual block).
+fn scan_node_tags(bytes: &[u8], binary: Option<(usize, bool)>) -> Option<Vec<u64>> {
+    let body = section_body(bytes, "$Nodes")?;
+    let mut tags = Vec::new();
+    match binary {
+        None => {
+            let text = std::str::from_utf8(body).ok()?;
+            let mut t = text.split_ascii_whitespace();
+            let num = |t: &mut std::str::SplitAsciiWhitespace<'_>| t.next()?.parse::<u64>().ok();
+            let blocks = num(&mut t)?;
+            for _ in 0..3 {
+                num(&mut t)?; // total, min tag, max tag
+            }
+            for _ in 0..blocks {
+                // Entity dimension and tag (signed ints), then parametric flag, count.
+                t.next()?;
+                t.next()?;
+                let (parametric, n) = (num(&mut t)?, num(&mut t)?);
+                if parametric != 0 {
+                    return None;
+                }
+                for _ in 0..n {
+                    tags.push(num(&mut t)?);
+                }
+                // Skip the coordinates (floats).
+                for _ in 0..n.saturating_mul(3) {
+                    t.next()?;
+                }
+            }
+        }
+        Some((size, big_endian)) => {
+            let mut at = 0usize;
+            let mut read = |len: usize| -> Option<u64> {
+                let b = body.get(at..at.checked_add(len)?)?;
+                at += len;
+                Some(uint(b, big_endian))
+            };
+            let blocks = read(size)?;
+            for _ in 0..3 {
+                read(size)?;
+            }
+            for _ in 0..blocks {
+                let (_dim, _entity, parametric) = (read(4)?, read(4)?, read(4)?);
+                let n = read(size)?;
+                if parametric != 0 {
+                    return None;
+                }
+                for _ in 0..n {
+                    tags.push(read(size)?);
+                }
+                for _ in 0..n.saturating_mul(3) {
+                    read(8)?;
+                }
+            }
+        }
+    }
+    Some(tags)
+}
+
+fn parse_v41(bytes: &[u8], name: &str) -> Result<Mesh, MeshError> {
+    let binary = binary_layout(bytes);
+    for (section, what) in [("$Nodes", "node"), ("$Elements", "element")] {
+        if let Some((line, blocks, count)) = section_counts(bytes, section, binary) {
+            let line = if binary.is_some() { None } else { Some(line) };
+            check_count(name, line, &format!("{what} entity block"), blocks)?;
+            check_count(name, line, what, count)?;
+        }
+    }
+
+    // mshio 0.4 still has a few `unimplemented!`/`expect` paths.
+    let parsed = catch_quietly(|| {
+        mshio::parse_msh_bytes(bytes).map_err(|e| mshio_error(bytes, name, binary.is_some(), &e))
+    })
+    .ok_or_else(|| MeshError::Parse {
+        file: name.to_owned(),
+        line: None,
+        message: "Gmsh MSH 4.1: the mshio parser failed (panicked) on this file".to_owned(),
+    })?;
+    let msh = parsed?;
+
+    let Some(msh_nodes) = msh.data.nodes else {
+        return Err(MeshError::Malformed {
+            file: name.to_owned(),
+            line: None,
+            expected: "a $Nodes section".to_owned(),
+            found: "none".to_owned(),
+        });
+    };
+    let total = check_count(name, None, "node", msh_nodes.num_nodes)?;
+    let coords: Vec<[f64; 3]> = msh_nodes
+        .node_blocks
+        .iter()
+        .flat_map(|block| block.nodes.iter().map(|n| [n.x, n.y, n.z]))
+        .collect();
+    // mshio keeps node tags only when they are sparse and then in a hash map; read
+    // them in file order ourselves so any tag layout maps correctly.
+    if coords.len() != total {
+        return Err(MeshError::CountMismatch {
+            file: name.to_owned(),
+            line: None,
+            what: "nodes in $Nodes".to_owned(),
+            declared: total,
+            found: coords.len(),
+        });
+    }
+    let tags = scan_node_tags(bytes, binary)
+        .filter(|tags| tags.len() == coords.len())
+        .ok_or_else(|| MeshError::Parse {
+            file: name.to_owned(),
+            line: None,
+            message: "Gmsh MSH 4.1: could not read the node tags of the $Nodes section".to_owned(),
+        })?;
+    let mut index_of: HashMap<u64, usize> = HashMap::with_capacity(total);
+    for (i, &tag) in tags.iter().enumerate() {
+        if index_of.insert(tag, i).is_some() {
+            return Err(MeshError::Malformed {
+                file: name.to_owned(),
+                line: None,
+                expected: "unique node tags".to_owned(),
+                found: format!("node tag {tag} more than once"),
+            });
+        }
+    }
+    let nodes = coords;
+    if let Some(bad) = nodes.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
+        return Err(MeshError::Malformed {
+            file: name.to_owned(),
+            line: None,
+            expected: "finite node coordinates".to_owned(),
+            found: format!("{:?} for node {}", nodes[bad], bad),
+        });
+    }
+
+    let mut tets = Vec::new();
+    let mut skipped = 0;
+    if let Some(elements) = &msh.data.elements {
+        check_count(name, None, "element", elements.num_elements)?;
+        for block in &elements.element_blocks {
+            if block.element_type != ElementType::Tet4 {
+                skipped += block.elements.len();
+                continue;
+            }
+            for element in &block.elements {
+                let mut tet = [0usize; 4];
+                if element.nodes.len() != 4 {
+                    return Err(MeshError::Malformed {
+                        file: name.to_owned(),
+                        line: None,
+                        expected: "4 nodes per tetrahedron".to_owned(),
+                        found: format!(
+                            "{} for element {}",
+                            element.nodes.len(),
+                            element.element_tag
+                        ),
+                    });
+                }
+                for (v, tag) in tet.iter_mut().zip(&element.nodes) {
+                    *v = *index_of.get(tag).ok_or(MeshError::UnknownNodeTag {
+                        file: name.to_owned(),
+                        line: None,
+                        tag: *tag,
+                    })?;
+                }
+                tets.push(tet);
+            }
+        }
+    }
+    if tets.is_empty() {
+        return Err(MeshError::NoTetrahedra {
+            file: name.to_owned(),
+            skipped,
+        });
+    }
+    Ok(Mesh { nodes, tets })
+}
+
+/// Turns mshio's error backtrace into a [`MeshError::Parse`] with a line number
+/// (ASCII files) or byte offset (binary files).
+fn mshio_error(
+    bytes: &[u8],
+    name: &str,
+    binary: bool,
+    e: &mshio::MshParserError<&[u8]>,
+) -> MeshError {
+    let trace = e.filtered_backtrace();
+    // Innermost error first; the position is where the innermost parser failed.
+    let offset = e
+        .backtrace
+        .first()
+        .map(|(rest, _)| bytes.len().saturating_sub(rest.len()))
+        .unwrap_or(0);
+    let describe =
+        |kind: &mshio::error::MshParserErrorKind| kind.to_string().trim_end_matches('.').to_owned();
+    let mut parts: Vec<String> = trace
+        .iter()
+        .skip(1)
+        .rev()
+        .map(|(_, k)| describe(k))
+        .collect();
+    parts.push(match trace.first() {
+        Some((_, kind)) => describe(kind),
+        None => "invalid MSH 4.1 data".to_owned(),
+    });
+    let mut message = parts.join(": ");
+    let line = if binary {
+        message.push_str(&format!(" (at byte offset {offset})"));
+        None
+    } else {
+        // Show the token where parsing stopped.
+        let rest = &bytes[offset.min(bytes.len())..];
+        let token: Vec<u8> = rest
+            .iter()
+            .skip_while(|b| b.is_ascii_whitespace())
+            .take_while(|b| !b.is_ascii_whitespace())
+            .take(40)
+            .copied()
+            .collect();
+        if token.is_empty() {
+            message.push_str(", found end of file");
+        } else {
+            message.push_str(&format!(", found \"{}\"", String::from_utf8_lossy(&token)));
+        }
+        Some(1 + bytes[..offset].iter().filter(|&&b| b == b'\n').count())
+    };
+    MeshError::Parse {
+        file: name.to_owned(),
+        line,
+        message: format!("Gmsh MSH 4.1: {message}"),
+    }
+}

@@ -1,0 +1,66 @@
+//! Scene storage on the heap, sized at run time, and the conversion of a
+//! read mesh to the core's input types — for host programs and tests whose
+//! meshes are only known at run time.
+
+use corofem::{Element, Node, NodeWork, Scene, Storage};
+
+use crate::Mesh;
+
+/// Scene storage in vectors.
+#[derive(Clone, Debug)]
+pub struct HeapStorage {
+    nodes: Vec<Node>,
+    work: Vec<NodeWork>,
+    elems: Vec<Element>,
+}
+
+impl HeapStorage {
+    /// Room for `nodes` nodes and `elems` tetrahedra.
+    pub fn new(nodes: usize, elems: usize) -> Self {
+        Self {
+            nodes: vec![Node::EMPTY; nodes],
+            work: vec![NodeWork::EMPTY; nodes],
+            elems: vec![Element::EMPTY; elems],
+        }
+    }
+}
+
+impl Storage for HeapStorage {
+    fn parts(&self) -> (&[Node], &[Element]) {
+        (&self.nodes, &self.elems)
+    }
+    fn parts_mut(&mut self) -> (&mut [Node], &mut [NodeWork], &mut [Element]) {
+        (&mut self.nodes, &mut self.work, &mut self.elems)
+    }
+}
+
+/// A scene whose storage is on the heap.
+pub type HeapScene = Scene<HeapStorage>;
+
+/// An empty heap scene with room for exactly `nodes` nodes and `elems` tetrahedra.
+pub fn heap_scene(nodes: usize, elems: usize) -> HeapScene {
+    Scene::with_storage(HeapStorage::new(nodes, elems))
+}
+
+/// The mesh as the core takes it: f32 coordinates (m, after multiplying by
+/// `scale`) and u32 indices. Indices that do not fit in u32 become
+/// `u32::MAX`, which the core rejects as out of range.
+pub fn to_core(mesh: &Mesh, scale: f64) -> (Vec<[f32; 3]>, Vec<[u32; 4]>) {
+    let nodes = mesh
+        .nodes
+        .iter()
+        .map(|p| {
+            [
+                (p[0] * scale) as f32,
+                (p[1] * scale) as f32,
+                (p[2] * scale) as f32,
+            ]
+        })
+        .collect();
+    let tets = mesh
+        .tets
+        .iter()
+        .map(|t| t.map(|i| u32::try_from(i).unwrap_or(u32::MAX)))
+        .collect();
+    (nodes, tets)
+}

@@ -1,0 +1,118 @@
+//! Host-side mesh input and result output for corofem.
+//!
+//! * [`read_mesh`] reads a tetrahedral [`Mesh`] from a `.tetmesh`, Gmsh `.msh`
+//!   (MSH 4.1 ASCII/binary, MSH 2.x ASCII, MSH 1.0), legacy VTK `.vtk` or XML VTK
+//!   `.vtu` file; every failure is a [`MeshError`] whose message names the file and,
+//!   where it applies, the line.
+//! * [`mesh_stats`] reports counts, bounding box, volumes, inverted or flat
+//!   tetrahedra and the dihedral-angle range; [`drop_unused_nodes`] removes nodes
+//!   no tetrahedron uses.
+//! * [`VtkSeries`] writes a simulation as `.vtu` frames plus a ParaView `.pvd`
+//!   collection; [`write_vtk_mesh`] and [`write_tetmesh`] write a single mesh.
+//!
+//! Third-party parsers do the heavy lifting where good ones exist: `mshio` for
+//! Gmsh MSH 4.1 and `vtkio` for VTK (reading and writing). The `.tetmesh` format and
+//! Gmsh's older ASCII formats are parsed by hand (see the [`tetmesh`] and [`gmsh`]
+//! modules for why).
+//!
+//! ```no_run
+//! use std::path::Path;
+//! let mut mesh = corofem_io::read_mesh(Path::new("liver.msh"))?;
+//! corofem_io::drop_unused_nodes(&mut mesh);
+//! let stats = corofem_io::mesh_stats(&mesh);
+//! println!("{} nodes, {} tets, min dihedral {:.1}°", stats.nodes, stats.tets, stats.min_dihedral_deg);
+//! # Ok::<(), corofem_io::MeshError>(())
+//! ```
+
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+mod error;
+pub mod gmsh;
+mod guard;
+mod heap;
+mod mesh;
+mod series;
+mod stats;
+pub mod tetmesh;
+mod text;
+pub mod vtk;
+
+use std::path::Path;
+
+pub use error::{MeshError, MAX_COUNT};
+pub use gmsh::parse_msh;
+pub use heap::{heap_scene, to_core, HeapScene, HeapStorage};
+pub use mesh::{drop_unused_nodes, Mesh};
+pub use series::{VtkSeries, PVD_NAME};
+pub use stats::{dihedral_angles_deg, mesh_stats, tet_volume, MeshStats, ZERO_VOLUME_RTOL};
+pub use tetmesh::{format_tetmesh, parse_tetmesh, write_tetmesh};
+pub use vtk::{parse_vtk_legacy, parse_vtu, write_vtk_mesh};
+
+/// The mesh file formats [`read_mesh`] knows, chosen by file extension.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MeshFormat {
+    /// `.tetmesh`: the project's `tetmesh 1` text format.
+    Tetmesh,
+    /// `.msh`: Gmsh MSH 4.1 (ASCII or binary), 2.x (ASCII) or 1.0.
+    Gmsh,
+    /// `.vtk`: legacy VTK unstructured grid (ASCII or binary).
+    VtkLegacy,
+    /// `.vtu`: XML VTK unstructured grid.
+    Vtu,
+}
+
+impl MeshFormat {
+    /// The format for a path's extension (case-insensitive), if it is one of
+    /// `.tetmesh`, `.msh`, `.vtk`, `.vtu`.
+    pub fn from_path(path: &Path) -> Option<MeshFormat> {
+        let ext = path.extension()?.to_str()?.to_ascii_lowercase();
+        match ext.as_str() {
+            "tetmesh" => Some(MeshFormat::Tetmesh),
+            "msh" => Some(MeshFormat::Gmsh),
+            "vtk" => Some(MeshFormat::VtkLegacy),
+            "vtu" => Some(MeshFormat::Vtu),
+            _ => None,
+        }
+    }
+}
+
+/// Reads a tetrahedral mesh, choosing the reader by the file extension
+/// (see [`MeshFormat`]; for `.msh` the version comes from the `$MeshFormat` header).
+///
+/// Only 4-node tetrahedra are kept (Gmsh element type 4, `VTK_TETRA`); other
+/// elements or cells are skipped. The result has at least one tetrahedron and only
+/// in-range indices; it may have unused nodes (see [`drop_unused_nodes`]).
+/// Coordinates are returned in the file's unit.
+///
+/// Errors name the file as given in `path`.
+pub fn read_mesh(path: &Path) -> Result<Mesh, MeshError> {
+    let name = path.display().to_string();
+    let format = MeshFormat::from_path(path).ok_or_else(|| MeshError::UnknownExtension {
+        file: name.clone(),
+        extension: path.extension().map(|e| e.to_string_lossy().into_owned()),
+    })?;
+    let bytes = std::fs::read(path).map_err(|source| MeshError::Io {
+        file: name.clone(),
+        source,
+    })?;
+    match format {
+        MeshFormat::Tetmesh => {
+            let text = std::str::from_utf8(&bytes).map_err(|e| MeshError::Malformed {
+                file: name.clone(),
+                line: Some(
+                    1 + bytes[..e.valid_up_to()]
+                        .iter()
+                        .filter(|&&b| b == b'\n')
+                        .count(),
+                ),
+                expected: "UTF-8 text".to_owned(),
+                found: "invalid bytes".to_owned(),
+            })?;
+            parse_tetmesh(text, &name)
+        }
+        MeshFormat::Gmsh => parse_msh(&bytes, &name),
+        MeshFormat::VtkLegacy => parse_vtk_legacy(&bytes, &name),
+        MeshFormat::Vtu => parse_vtu(&bytes, &name),
+    }
+}

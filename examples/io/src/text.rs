@@ -1,0 +1,123 @@
+//! Line and number helpers shared by the hand-written text parsers
+//! (`.tetmesh`, Gmsh MSH 1 and 2 ASCII).
+
+use crate::error::MeshError;
+
+/// Iterates over the non-blank lines of a text, remembering 1-based line numbers.
+pub(crate) struct LineReader<'a> {
+    file: &'a str,
+    lines: std::iter::Enumerate<std::str::Lines<'a>>,
+    /// Number of the last line returned (0 before the first).
+    last: usize,
+}
+
+impl<'a> LineReader<'a> {
+    /// Reads `text`, reporting errors against `file`.
+    pub(crate) fn new(text: &'a str, file: &'a str) -> Self {
+        LineReader {
+            file,
+            lines: text.lines().enumerate(),
+            last: 0,
+        }
+    }
+
+    /// The file name errors are reported against.
+    pub(crate) fn file(&self) -> &'a str {
+        self.file
+    }
+
+    /// The next non-blank line as `(line number, trimmed text)`, or `None` at the end.
+    pub(crate) fn next_line(&mut self) -> Option<(usize, &'a str)> {
+        for (i, line) in self.lines.by_ref() {
+            self.last = i + 1;
+            let line = line.trim();
+            if !line.is_empty() {
+                return Some((i + 1, line));
+            }
+        }
+        None
+    }
+
+    /// The next non-blank line, or [`MeshError::Truncated`] saying `expected()` was
+    /// expected.
+    pub(crate) fn expect_line(
+        &mut self,
+        expected: impl FnOnce() -> String,
+    ) -> Result<(usize, &'a str), MeshError> {
+        match self.next_line() {
+            Some(l) => Ok(l),
+            None => Err(MeshError::Truncated {
+                file: self.file.to_owned(),
+                line: self.last + 1,
+                expected: expected(),
+            }),
+        }
+    }
+
+    /// Returns a [`MeshError::Malformed`] for `line`.
+    pub(crate) fn malformed(&self, line: usize, expected: String, found: String) -> MeshError {
+        MeshError::Malformed {
+            file: self.file.to_owned(),
+            line: Some(line),
+            expected,
+            found,
+        }
+    }
+
+    /// Parses a finite `f64`, or returns [`MeshError::BadNumber`].
+    pub(crate) fn f64(
+        &self,
+        line: usize,
+        token: &str,
+        what: impl FnOnce() -> String,
+    ) -> Result<f64, MeshError> {
+        match token.parse::<f64>() {
+            Ok(v) if v.is_finite() => Ok(v),
+            _ => Err(self.bad_number(line, token, format!("{} (a finite number)", what()))),
+        }
+    }
+
+    /// Parses a non-negative integer, or returns [`MeshError::BadNumber`].
+    pub(crate) fn u64(
+        &self,
+        line: usize,
+        token: &str,
+        what: impl FnOnce() -> String,
+    ) -> Result<u64, MeshError> {
+        token.parse::<u64>().map_err(|_| {
+            self.bad_number(line, token, format!("{} (a non-negative integer)", what()))
+        })
+    }
+
+    fn bad_number(&self, line: usize, token: &str, expected: String) -> MeshError {
+        MeshError::BadNumber {
+            file: self.file.to_owned(),
+            line,
+            expected,
+            token: shorten(token),
+        }
+    }
+}
+
+/// Splits a line into whitespace-separated tokens.
+pub(crate) fn tokens(line: &str) -> Vec<&str> {
+    line.split_ascii_whitespace().collect()
+}
+
+/// A token or line cut to at most 60 characters for an error message.
+pub(crate) fn shorten(s: &str) -> String {
+    const MAX: usize = 60;
+    match s.char_indices().nth(MAX) {
+        Some((i, _)) => format!("{}...", &s[..i]),
+        None => s.to_owned(),
+    }
+}
+
+/// `"1 value"` / `"3 values"`.
+pub(crate) fn plural(n: usize, word: &str) -> String {
+    if n == 1 {
+        format!("{n} {word}")
+    } else {
+        format!("{n} {word}s")
+    }
+}
