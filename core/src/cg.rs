@@ -24,6 +24,9 @@ pub(crate) struct CgOutcome {
     pub(crate) iterations: u32,
     /// `sqrt(rᵀz / r₀ᵀz₀)`: the final residual relative to the initial one.
     pub(crate) residual: f32,
+    /// The residual or an inner product overflowed: the system itself is
+    /// beyond f32 (absurd loads), so no solution can be trusted.
+    pub(crate) overflow: bool,
 }
 
 /// Relative floor of `rᵀz` (f32 epsilon squared): iterating below it only
@@ -47,7 +50,13 @@ pub(crate) fn solve(
         rz += dot(w.r, z);
     }
     let rz0 = rz;
-    if !(rz0 > 0.0 && rz0.is_finite()) {
+    if !rz0.is_finite() {
+        return CgOutcome {
+            overflow: true,
+            ..CgOutcome::default()
+        };
+    }
+    if !(rz0 > 0.0) {
         return CgOutcome::default();
     }
     let stop = (tolerance * tolerance * rz0)
@@ -57,7 +66,14 @@ pub(crate) fn solve(
     while iterations < max_iterations && rz > stop {
         apply(work);
         let dq = work.iter().fold(0.0f32, |s, w| s + dot(w.d, w.q));
-        if !(dq > 0.0 && dq.is_finite()) {
+        if !dq.is_finite() {
+            return CgOutcome {
+                iterations,
+                residual: f32::INFINITY,
+                overflow: true,
+            };
+        }
+        if !(dq > 0.0) {
             break;
         }
         let alpha = rz / dq;
@@ -79,5 +95,6 @@ pub(crate) fn solve(
     CgOutcome {
         iterations,
         residual: sqrt(rz.max(0.0) / rz0),
+        overflow: !rz.is_finite(),
     }
 }

@@ -74,11 +74,6 @@ pub enum Error {
         /// The parameter's name, as in the settings struct.
         name: &'static str,
     },
-    /// The requested method or model was not compiled in (cargo feature off).
-    NotCompiled {
-        /// The cargo feature that would enable it.
-        feature: &'static str,
-    },
     /// The operation needs a built scene.
     NotBuilt,
     /// A static solve needs something that holds the body: fixed nodes or the tool.
@@ -121,9 +116,6 @@ impl fmt::Display for Error {
             Error::NodeOutOfRange { node } => write!(f, "node {node} does not exist"),
             Error::ElementOutOfRange { element } => write!(f, "element {element} does not exist"),
             Error::InvalidParameter { name } => write!(f, "parameter `{name}` is out of range"),
-            Error::NotCompiled { feature } => {
-                write!(f, "not compiled in: enable the cargo feature `{feature}`")
-            }
             Error::NotBuilt => write!(f, "the scene has not been built"),
             Error::Unconstrained => {
                 write!(f, "a static solve needs fixed nodes or a grabbing tool")

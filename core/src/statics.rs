@@ -173,10 +173,11 @@ impl<S: Storage> Scene<S> {
                 let out = cg::solve(work, cfg.cg_iterations, cfg.cg_tolerance, |_, z| z, apply);
                 last.cg_iterations = out.iterations;
                 last.cg_residual = out.residual;
-                if !nodes
-                    .iter()
-                    .zip(work.iter())
-                    .all(|(n, w)| is_finite3(add(n.u, w.x)))
+                if out.overflow
+                    || !nodes
+                        .iter()
+                        .zip(work.iter())
+                        .all(|(n, w)| is_finite3(add(n.u, w.x)))
                 {
                     return Err(Error::StaticDiverged);
                 }

@@ -182,6 +182,9 @@ pub(crate) fn step(v: View<'_>) -> Result<StepStats, StepError> {
     let outcome = cg::solve(work, s.cg_iterations, s.cg_tolerance, project, apply);
 
     // Check, then apply.
+    if outcome.overflow {
+        return Err(StepError::Diverged);
+    }
     let ok = nodes.iter().zip(work.iter()).all(|(n, w)| {
         let v = add(n.v, w.x);
         is_finite3(v) && is_finite3(axpy(n.u, h, v))

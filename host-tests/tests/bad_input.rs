@@ -1,0 +1,360 @@
+//! Bad input: every error variant is triggered, and the scene is unchanged
+//! after each (same state hash, counts, settings and fixed nodes).
+
+use corofem::{
+    BuildOptions, Error, Material, Plane, Settings, StaticScene, StaticSettings, StepError,
+};
+use corofem_host_tests::box_mesh;
+
+type Small = StaticScene<64, 128>;
+
+/// A built, stepped scene and a fingerprint of everything observable.
+fn scene() -> Small {
+    scene_of(&Material::default())
+}
+
+fn scene_of(material: &Material) -> Small {
+    let mesh = box_mesh([2.0, 1.0, 1.0], [2, 1, 1], 6);
+    let mut s = Small::new();
+    s.build(&mesh.nodes, &mesh.tets, material, BuildOptions::default())
+        .unwrap();
+    s.fix_nodes(&[0]).unwrap();
+    s.set_force(5, [1.0, 2.0, 3.0]).unwrap();
+    for _ in 0..3 {
+        s.step().unwrap();
+    }
+    s
+}
+
+fn fingerprint(
+    s: &Small,
+) -> (
+    u64,
+    usize,
+    usize,
+    Settings,
+    Vec<bool>,
+    Vec<[f32; 3]>,
+    Option<Plane>,
+) {
+    let fixed = (0..s.node_count()).map(|i| s.is_fixed(i)).collect();
+    let rest = (0..s.node_count())
+        .map(|i| s.rest_position(i).unwrap())
+        .collect();
+    (
+        s.state_hash(),
+        s.node_count(),
+        s.element_count(),
+        *s.settings(),
+        fixed,
+        rest,
+        s.ground(),
+    )
+}
+
+/// Asserts `op` fails with `want` and changes nothing.
+fn rejects<T: std::fmt::Debug>(want: Error, op: impl FnOnce(&mut Small) -> Result<T, Error>) {
+    let mut s = scene();
+    let before = fingerprint(&s);
+    let got = op(&mut s);
+    assert_eq!(got.err(), Some(want));
+    assert_eq!(fingerprint(&s), before, "{want:?} changed the scene");
+    assert!(!want.to_string().is_empty());
+}
+
+const TET: [[f32; 3]; 4] = [
+    [0.0, 0.0, 0.0],
+    [1.0, 0.0, 0.0],
+    [0.0, 1.0, 0.0],
+    [0.0, 0.0, 1.0],
+];
+
+#[test]
+fn every_build_error_names_the_culprit_and_changes_nothing() {
+    let m = Material::default();
+    let o = BuildOptions::default();
+    let many = vec![[0.0f32; 3]; 65];
+    rejects(
+        Error::TooManyNodes {
+            count: 65,
+            capacity: 64,
+        },
+        |s| s.build(&many, &[[0, 1, 2, 3]], &m, o),
+    );
+    rejects(
+        Error::TooManyElements {
+            count: 129,
+            capacity: 128,
+        },
+        |s| s.build(&TET, &[[0, 1, 2, 3]; 129], &m, o),
+    );
+    rejects(Error::NoElements, |s| s.build(&TET, &[], &m, o));
+    let mut nan = TET;
+    nan[2][1] = f32::NAN;
+    rejects(Error::NonFiniteCoordinate { node: 2 }, |s| {
+        s.build(&nan, &[[0, 1, 2, 3]], &m, o)
+    });
+    let mut inf = TET;
+    inf[3][0] = f32::INFINITY;
+    rejects(Error::NonFiniteCoordinate { node: 3 }, |s| {
+        s.build(&inf, &[[0, 1, 2, 3]], &m, o)
+    });
+    rejects(
+        Error::NodeIndexOutOfRange {
+            element: 1,
+            node: 7,
+        },
+        |s| s.build(&TET, &[[0, 1, 2, 3], [0, 1, 2, 7]], &m, o),
+    );
+    rejects(
+        Error::RepeatedNode {
+            element: 0,
+            node: 1,
+        },
+        |s| s.build(&TET, &[[0, 1, 1, 3]], &m, o),
+    );
+    let flat = [
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [1.0, 1.0, 0.0],
+    ];
+    rejects(Error::DegenerateElement { element: 0 }, |s| {
+        s.build(&flat, &[[0, 1, 2, 3]], &m, o)
+    });
+    let same = [
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 0.0, 1.0],
+    ];
+    rejects(Error::DegenerateElement { element: 0 }, |s| {
+        s.build(&same, &[[0, 1, 2, 3]], &m, o)
+    });
+    rejects(Error::InvertedElement { element: 0 }, |s| {
+        s.build(&TET, &[[0, 2, 1, 3]], &m, o)
+    });
+    let five = [TET[0], TET[1], TET[2], TET[3], [5.0, 5.0, 5.0]];
+    rejects(Error::UnusedNode { node: 4 }, |s| {
+        s.build(&five, &[[0, 1, 2, 3]], &m, o)
+    });
+    for (bad, name) in [
+        (Material { young: -1.0, ..m }, "young"),
+        (
+            Material {
+                young: f32::NAN,
+                ..m
+            },
+            "young",
+        ),
+        (Material { poisson: 0.5, ..m }, "poisson"),
+        (Material { poisson: -0.1, ..m }, "poisson"),
+        (Material { density: 0.0, ..m }, "density"),
+        (
+            Material {
+                density: f32::INFINITY,
+                ..m
+            },
+            "density",
+        ),
+    ] {
+        rejects(Error::InvalidParameter { name }, |s| {
+            s.build(&TET, &[[0, 1, 2, 3]], &bad, o)
+        });
+    }
+}
+
+#[test]
+fn reorientation_fixes_negative_tetrahedra_when_asked() {
+    let mut s = Small::new();
+    s.build(
+        &TET,
+        &[[0, 2, 1, 3]],
+        &Material::default(),
+        BuildOptions { reorient: true },
+    )
+    .unwrap();
+    assert_eq!(s.element_nodes(0), Some([0, 2, 3, 1]));
+    assert!(s.rest_volume(0).unwrap() > 0.0);
+}
+
+#[test]
+fn every_setter_error_changes_nothing() {
+    rejects(Error::NodeOutOfRange { node: 18 }, |s| {
+        s.fix_nodes(&[1, 18])
+    });
+    rejects(Error::NodeOutOfRange { node: 99 }, |s| {
+        s.set_force(99, [0.0; 3])
+    });
+    rejects(Error::InvalidParameter { name: "force" }, |s| {
+        s.set_force(1, [f32::NAN, 0.0, 0.0])
+    });
+    rejects(Error::NodeOutOfRange { node: 40 }, |s| {
+        s.grab(&[2, 40], 10.0)
+    });
+    rejects(Error::InvalidParameter { name: "tool.nodes" }, |s| {
+        s.grab(&[], 10.0)
+    });
+    rejects(
+        Error::InvalidParameter {
+            name: "tool.stiffness",
+        },
+        |s| s.grab(&[2], -1.0),
+    );
+    rejects(Error::ElementOutOfRange { element: 12 }, |s| {
+        s.set_young(12, 1.0)
+    });
+    rejects(Error::InvalidParameter { name: "young" }, |s| {
+        s.set_young(0, -5.0)
+    });
+    rejects(Error::InvalidParameter { name: "young" }, |s| {
+        s.set_young_all(f32::INFINITY)
+    });
+    rejects(Error::InvalidParameter { name: "poisson" }, |s| {
+        s.set_poisson(0.7)
+    });
+    rejects(Error::InvalidParameter { name: "ground" }, |s| {
+        s.set_ground(Some(Plane {
+            normal: [0.0; 3],
+            offset: 0.0,
+        }))
+    });
+    rejects(Error::InvalidParameter { name: "positions" }, |s| {
+        s.set_positions(&[[0.0; 3]; 3])
+    });
+    rejects(Error::InvalidParameter { name: "velocities" }, |s| {
+        let mut v = vec![[0.0f32; 3]; s.node_count()];
+        v[4][1] = f32::NAN;
+        s.set_velocities(&v)
+    });
+    rejects(
+        Error::InvalidParameter {
+            name: "displacements",
+        },
+        |s| s.set_displacements(&[]),
+    );
+    for (bad, name) in [
+        (
+            Settings {
+                dt: 0.0,
+                ..Settings::default()
+            },
+            "dt",
+        ),
+        (
+            Settings {
+                dt: f32::NAN,
+                ..Settings::default()
+            },
+            "dt",
+        ),
+        (
+            Settings {
+                cg_iterations: 0,
+                ..Settings::default()
+            },
+            "cg_iterations",
+        ),
+        (
+            Settings {
+                cg_tolerance: -1.0,
+                ..Settings::default()
+            },
+            "cg_tolerance",
+        ),
+        (
+            Settings {
+                rayleigh_mass: -1.0,
+                ..Settings::default()
+            },
+            "rayleigh_mass",
+        ),
+        (
+            Settings {
+                rayleigh_stiffness: f32::NAN,
+                ..Settings::default()
+            },
+            "rayleigh_stiffness",
+        ),
+        (
+            Settings {
+                gravity: [0.0, f32::INFINITY, 0.0],
+                ..Settings::default()
+            },
+            "gravity",
+        ),
+    ] {
+        rejects(Error::InvalidParameter { name }, |s| s.set_settings(bad));
+    }
+    rejects(Error::InvalidParameter { name: "out" }, |s| {
+        s.elastic_forces(&mut [[0.0; 3]; 2])
+    });
+}
+
+#[test]
+fn static_solve_errors() {
+    rejects(Error::InvalidParameter { name: "static" }, |s| {
+        s.solve_static(
+            &StaticSettings {
+                cg_iterations: 0,
+                ..StaticSettings::default()
+            },
+            |_| {},
+        )
+    });
+    rejects(Error::Unconstrained, |s| {
+        s.unfix_all();
+        let r = s.solve_static(&StaticSettings::default(), |_| {});
+        s.fix_nodes(&[0]).unwrap();
+        r
+    });
+    let mut empty = Small::new();
+    assert_eq!(
+        empty.solve_static(&StaticSettings::default(), |_| {}).err(),
+        Some(Error::NotBuilt)
+    );
+    // A load on a body so light that the update overflows f32.
+    let mut s = scene_of(&Material {
+        density: 1e-9,
+        ..Material::default()
+    });
+    s.set_force(7, [3.0e38, 3.0e38, 3.0e38]).unwrap();
+    s.set_force(8, [3.0e38, 3.0e38, 3.0e38]).unwrap();
+    let before = s.state_hash();
+    assert_eq!(
+        s.solve_static(&StaticSettings::default(), |_| {}).err(),
+        Some(Error::StaticDiverged)
+    );
+    // The solve keeps the last finite iterate; here the very first update overflowed.
+    assert_eq!(s.state_hash(), before);
+}
+
+#[test]
+fn step_errors_leave_the_state_unchanged() {
+    // Light enough that a huge force overflows the velocity.
+    let mut s = scene_of(&Material {
+        density: 1e-9,
+        ..Material::default()
+    });
+    s.grab(&[10, 11], 100.0).unwrap();
+    let before = s.state_hash();
+    let target = s.tool_target();
+    assert_eq!(
+        s.step_haptic([f32::NAN, 0.0, 0.0]).err(),
+        Some(StepError::NonFiniteInput)
+    );
+    assert_eq!(
+        s.step_haptic([0.0, f32::INFINITY, 0.0]).err(),
+        Some(StepError::NonFiniteInput)
+    );
+    assert_eq!(s.state_hash(), before);
+    assert_eq!(s.tool_target(), target);
+    s.set_force(7, [3.0e38, 0.0, 0.0]).unwrap();
+    s.set_force(8, [3.0e38, 0.0, 0.0]).unwrap();
+    assert_eq!(s.step().err(), Some(StepError::Diverged));
+    assert_eq!(s.state_hash(), before);
+    // And it keeps working once the input is sane again.
+    s.clear_forces();
+    s.step().unwrap();
+    assert!(s.positions().all(|p| p.iter().all(|v| v.is_finite())));
+}
