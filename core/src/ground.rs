@@ -92,6 +92,27 @@ impl Plane {
     }
 }
 
+impl<S: crate::Storage> crate::Scene<S> {
+    /// Sets (or removes, with `None`) the ground plane. Nodes already below it
+    /// are pushed out over the next steps.
+    pub fn set_ground(&mut self, plane: Option<Plane>) -> Result<(), crate::Error> {
+        self.hdr.ground = match plane {
+            Some(p) => Some(
+                p.normalized()
+                    .ok_or(crate::Error::InvalidParameter { name: "ground" })?,
+            ),
+            None => None,
+        };
+        Ok(())
+    }
+
+    /// The ground plane (normalised), if any.
+    #[must_use]
+    pub fn ground(&self) -> Option<Plane> {
+        self.hdr.ground
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -126,26 +147,5 @@ mod tests {
         let (u, v) = p.project([0.0, 0.0, 0.0], [0.0, 0.0, -0.5], [1.0, 0.0, -2.0]);
         assert_eq!(u, [0.0, 0.0, 0.0]);
         assert_eq!(v, [1.0, 0.0, 0.0]);
-    }
-}
-
-impl<S: crate::Storage> crate::Scene<S> {
-    /// Sets (or removes, with `None`) the ground plane. Nodes already below it
-    /// are pushed out over the next steps.
-    pub fn set_ground(&mut self, plane: Option<Plane>) -> Result<(), crate::Error> {
-        self.hdr.ground = match plane {
-            Some(p) => Some(
-                p.normalized()
-                    .ok_or(crate::Error::InvalidParameter { name: "ground" })?,
-            ),
-            None => None,
-        };
-        Ok(())
-    }
-
-    /// The ground plane (normalised), if any.
-    #[must_use]
-    pub fn ground(&self) -> Option<Plane> {
-        self.hdr.ground
     }
 }

@@ -71,6 +71,9 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 #![cfg_attr(docsrs, feature(doc_cfg))]
+// `!(x > 0.0)` is the NaN-safe way to reject a value: it is true for NaN,
+// which `x <= 0.0` is not. We use it on purpose throughout.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 mod cg;
 mod element;

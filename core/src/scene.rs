@@ -249,7 +249,8 @@ impl<S: Storage> Scene<S> {
                 grad: rest_out.grad,
                 #[cfg(any(feature = "polar", feature = "linear"))]
                 rest_grad: rest_out.grad,
-                ..Element::EMPTY
+                #[cfg(feature = "polar")]
+                rot: crate::element::polar::IDENTITY,
             };
             let quarter = material.density * six_v0 * (1.0 / 24.0);
             for i in t {

@@ -26,9 +26,8 @@ fn scene_of(material: &Material) -> Small {
     s
 }
 
-fn fingerprint(
-    s: &Small,
-) -> (
+/// State hash, counts, settings, fixed flags, rest positions and ground.
+type Fingerprint = (
     u64,
     usize,
     usize,
@@ -36,7 +35,9 @@ fn fingerprint(
     Vec<bool>,
     Vec<[f32; 3]>,
     Option<Plane>,
-) {
+);
+
+fn fingerprint(s: &Small) -> Fingerprint {
     let fixed = (0..s.node_count()).map(|i| s.is_fixed(i)).collect();
     let rest = (0..s.node_count())
         .map(|i| s.rest_position(i).unwrap())

@@ -36,6 +36,7 @@ fn frame(ab: V, ac: V, ad: V) -> ([V; 3], [f64; 6]) {
     )
 }
 
+#[allow(clippy::needless_range_loop)] // index loops mirror the matrix formulas
 /// Element stiffness (12×12, world) and elastic forces (12) of the QR method.
 fn element(x0: [V; 4], x: [V; 4], lam: f64, mu: f64) -> (Vec<Vec<f64>>, Vec<f64>) {
     let (_, l0) = frame(sub(x0[1], x0[0]), sub(x0[2], x0[0]), sub(x0[3], x0[0]));
@@ -146,6 +147,7 @@ fn element(x0: [V; 4], x: [V; 4], lam: f64, mu: f64) -> (Vec<Vec<f64>>, Vec<f64>
     (kw, fw)
 }
 
+#[allow(clippy::needless_range_loop)] // index loops mirror the algorithm
 /// Gaussian elimination with partial pivoting.
 fn solve(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Vec<f64> {
     let n = b.len();
@@ -171,6 +173,7 @@ fn solve(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Vec<f64> {
 }
 
 #[test]
+#[allow(clippy::needless_range_loop)] // index loops mirror the matrix formulas
 fn converged_cg_step_equals_a_dense_direct_solve() {
     let mesh = box_mesh([2.0, 1.0, 1.0], [2, 1, 1], 6);
     let (young, nu, rho) = (2.0e7f64, 0.3f64, 1000.0f64);

@@ -162,16 +162,14 @@ fn jacobi_rotate(a: &mut [[f32; 4]; 4], v: &mut [[f32; 4]; 4], p: usize, r: usiz
     };
     let c = 1.0 / sqrt(t * t + 1.0);
     let s = t * c;
-    for k in 0..4 {
-        let (akp, akr) = (a[k][p], a[k][r]);
-        a[k][p] = c * akp - s * akr;
-        a[k][r] = s * akp + c * akr;
+    for row in a.iter_mut() {
+        let (akp, akr) = (row[p], row[r]);
+        row[p] = c * akp - s * akr;
+        row[r] = s * akp + c * akr;
     }
-    for k in 0..4 {
-        let (apk, ark) = (a[p][k], a[r][k]);
-        a[p][k] = c * apk - s * ark;
-        a[r][k] = s * apk + c * ark;
-    }
+    let (ap, ar) = (a[p], a[r]);
+    a[p] = core::array::from_fn(|k| c * ap[k] - s * ar[k]);
+    a[r] = core::array::from_fn(|k| s * ap[k] + c * ar[k]);
     for row in v.iter_mut() {
         let (vp, vr) = (row[p], row[r]);
         row[p] = c * vp - s * vr;
@@ -322,6 +320,7 @@ pub(crate) fn forces(
 }
 
 #[cfg(test)]
+#[allow(clippy::needless_range_loop)] // index loops mirror the formulas
 mod tests {
     use super::*;
 

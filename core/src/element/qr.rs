@@ -35,10 +35,7 @@ pub(crate) struct Frame {
 pub(crate) fn frame(ab: Vec3, ac: Vec3, ad: Vec3) -> Frame {
     let e1 = match normalize(ab) {
         Some(e) => e,
-        None => match normalize(ac) {
-            Some(e) => e,
-            None => [1.0, 0.0, 0.0],
-        },
+        None => normalize(ac).unwrap_or([1.0, 0.0, 0.0]),
     };
     let e3 = match normalize(cross(e1, ac)) {
         Some(e) => e,
@@ -72,10 +69,7 @@ fn any_perpendicular(e: Vec3) -> Vec3 {
     } else {
         [0.0, 0.0, 1.0]
     };
-    match normalize(cross(e, axis)) {
-        Some(n) => n,
-        None => [0.0, 0.0, 1.0],
-    }
+    normalize(cross(e, axis)).unwrap_or([0.0, 0.0, 1.0])
 }
 
 /// Shape-function gradients of `b, c, d` in the local frame, scaled by `6V`:
@@ -197,6 +191,7 @@ pub(crate) fn forces<const CURRENT_B: bool>(
 }
 
 #[cfg(test)]
+#[allow(clippy::needless_range_loop)] // index loops mirror the formulas
 mod tests {
     use super::*;
     use crate::math::sub;
