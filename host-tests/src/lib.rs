@@ -40,9 +40,14 @@ pub fn shared_meshes() -> Option<PathBuf> {
 }
 
 /// Loads a shared mesh by file name, or prints a SKIPPED notice and returns
-/// `None` when the shared folder is absent.
+/// `None` when the shared folder is absent. With `COROFEM_REQUIRE_MESHES=1`
+/// (set by `.ci/run`) a missing folder is a failure, so CI cannot skip silently.
 pub fn shared_mesh(name: &str) -> Option<CoreMesh> {
     let Some(dir) = shared_meshes() else {
+        assert!(
+            std::env::var_os("COROFEM_REQUIRE_MESHES").is_none(),
+            "COROFEM_REQUIRE_MESHES is set but ../shared/meshes is missing"
+        );
         eprintln!("SKIPPED: ../shared/meshes not found, test needing {name} did not run");
         return None;
     };

@@ -178,8 +178,13 @@ fn zero_stiffness_bunny_crushed_on_the_ground_recovers_when_stiffened() {
     // (measured worst edge 3%). Bound: 5% on the worst edge of 6000.
     assert!(err < 0.05, "{err}");
     assert_eq!(scene.inverted_count(), 0);
-    // Resting on the ground, not sunk into it (f32 round-off of the plane test).
+    // Resting on the ground, not sunk into it (f32 round-off of the plane test),
+    // and at rest: the kinetic energy left is tiny next to the
+    // potential energy (~1 J) a 1 kg bunny gains by standing up 0.1 m.
     assert!(below > -1e-5, "{below}");
+    let ke = scene.kinetic_energy();
+    eprintln!("bunny: kinetic energy at the end {ke:.2e} J");
+    assert!(ke < 1e-3, "{ke}");
 }
 
 #[test]
