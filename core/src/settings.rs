@@ -16,7 +16,8 @@ pub struct Settings {
     /// Most conjugate-gradient iterations per step (`≥ 1`). Default 5.
     pub cg_iterations: u32,
     /// Relative residual (preconditioned norm) at which CG stops early
-    /// (`≥ 0`; 0 = always run `cg_iterations`). Default 0.
+    /// (`≥ 0`; 0 = no early stop, except at the f32 round-off floor `ε²` of
+    /// `rᵀz`, below which iterating only makes slow subnormal numbers). Default 0.
     pub cg_tolerance: f32,
     /// Mass-proportional Rayleigh damping `α_M` (1/s, `≥ 0`). Default 0.
     pub rayleigh_mass: f32,

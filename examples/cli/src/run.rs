@@ -1,0 +1,602 @@
+//! `corofem run`: builds the scene, steps it (or solves for static
+//! equilibrium), records the history and writes the result.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use corofem::{BuildOptions, StepStats};
+use corofem_io::{HeapScene, HeapStorage, VtkSeries};
+
+use crate::error::{CliError, CliResult};
+use crate::mesh_input::{self, CoreMesh};
+use crate::progress::Progress;
+use crate::result::{
+    self, Destination, FinalState, HistoryEntry, MeshCounts, RunResult, StaticOutcome, Timing,
+};
+use crate::scene_file::{self, SceneSpec, StaticSpec, ToolSpec};
+use crate::select;
+
+/// Command-line options of `corofem run`.
+#[derive(Debug, Clone)]
+pub struct RunOptions {
+    /// The scene file.
+    pub scene: PathBuf,
+    /// Where the result JSON goes.
+    pub out: Destination,
+    /// Folder for a VTK time series (one frame per history record).
+    pub vtk: Option<PathBuf>,
+    /// No progress bar, notes or summary.
+    pub quiet: bool,
+}
+
+/// Runs a scene file end to end. Nothing is written to the result destination
+/// unless the whole run succeeds.
+pub fn run(opts: &RunOptions) -> CliResult<()> {
+    let spec = scene_file::load(&opts.scene)?;
+    opts.out
+        .check()
+        .map_err(|e| CliError(format!("cannot write the result: {e}")))?;
+    let mut notes = Vec::new();
+    let mesh = mesh_input::load(&spec.mesh, &spec.file, &mut notes)?;
+    if spec.static_solve.is_some() {
+        static_notes(&spec, &mut notes);
+    }
+    if !opts.quiet {
+        for n in &notes {
+            eprintln!("note: {n}");
+        }
+    }
+    let mut sim = Sim::build(&spec, &mesh)?;
+    let mut vtk = match &opts.vtk {
+        None => None,
+        Some(dir) => {
+            let tets: Vec<[usize; 4]> = (0..sim.scene.element_count())
+                .filter_map(|e| sim.scene.element_nodes(e))
+                .map(|t| t.map(usize::from))
+                .collect();
+            Some(VtkSeries::create(dir, &tets).map_err(|e| CliError(format!("--vtk: {e}")))?)
+        }
+    };
+    let outcome = match spec.static_solve {
+        Some(st) => sim.solve_static(&st, vtk.as_mut(), opts.quiet)?,
+        None => sim.simulate(vtk.as_mut(), opts.quiet)?,
+    };
+    if let Some(series) = vtk {
+        series
+            .finish()
+            .map_err(|e| CliError(format!("--vtk: {e}")))?;
+    }
+    let final_state = sim.final_state()?;
+    let result = RunResult {
+        format: result::FORMAT,
+        scene: spec.file.clone(),
+        mesh: MeshCounts {
+            nodes: sim.scene.node_count(),
+            tets: sim.scene.element_count(),
+        },
+        method: spec.settings.method.name(),
+        steps: outcome.steps,
+        static_solve: outcome
+            .converged
+            .map(|converged| StaticOutcome { converged }),
+        timing: outcome.timing,
+        final_state,
+        history: outcome.history,
+    };
+    opts.out
+        .write(&result::to_json(&result))
+        .map_err(|e| CliError(format!("cannot write the result: {e}")))?;
+    if !opts.quiet {
+        eprintln!(
+            "{}",
+            summary(&spec, &mesh, &result, &outcome.extremes, &opts.out)
+        );
+    }
+    Ok(())
+}
+
+/// Notes for scene parts that a static solve ignores.
+fn static_notes(spec: &SceneSpec, notes: &mut Vec<String>) {
+    let file = &spec.file;
+    let mut ignored = Vec::new();
+    if spec.steps > 0 {
+        ignored.push("[solver] dt and steps");
+    }
+    if spec.initial.is_some() {
+        ignored.push("[initial]");
+    }
+    if spec.ground.is_some() {
+        ignored.push("[world] ground");
+    }
+    if !spec.material_changes.is_empty() {
+        ignored.push("[[material_change]]");
+    }
+    if spec.tool.as_ref().is_some_and(|t| t.release.is_some()) {
+        ignored.push("[tool] release");
+    }
+    if !ignored.is_empty() {
+        notes.push(format!(
+            "{file}: static = true: ignoring {} (the tool, if any, holds its target at the path's last point)",
+            ignored.join(", ")
+        ));
+    }
+}
+
+/// What the run loop produced.
+struct Outcome {
+    steps: u64,
+    converged: Option<bool>,
+    timing: Timing,
+    history: Vec<HistoryEntry>,
+    extremes: Extremes,
+}
+
+/// Largest values seen over every step, for the summary.
+#[derive(Debug, Default, Clone, Copy)]
+struct Extremes {
+    inverted: u32,
+    tool_force: f32,
+}
+
+/// The tool as set up at step 0.
+struct Tool<'a> {
+    spec: &'a ToolSpec,
+    nodes: Vec<u32>,
+    /// Grabbed nodes' centroid at step 0 (m).
+    origin: [f64; 3],
+    /// First step index whose start time is at or after `release`.
+    release_step: Option<u64>,
+}
+
+impl Tool<'_> {
+    /// Tool target at time `t` (s).
+    fn target(&self, t: f64) -> [f32; 3] {
+        let d = self.spec.path.offset(t);
+        [0, 1, 2].map(|k| (self.origin[k] + d[k]) as f32)
+    }
+}
+
+/// A built scene and what the run needs alongside it.
+struct Sim<'a> {
+    spec: &'a SceneSpec,
+    scene: HeapScene,
+    tool: Option<Tool<'a>>,
+    /// Scratch for `elastic_forces`.
+    forces: Vec<[f32; 3]>,
+}
+
+impl<'a> Sim<'a> {
+    /// Builds the scene and applies fixed nodes, forces, ground, initial
+    /// motion and the tool grab.
+    fn build(spec: &'a SceneSpec, mesh: &CoreMesh) -> CliResult<Sim<'a>> {
+        let file = &spec.file;
+        let mut scene =
+            HeapScene::with_storage(HeapStorage::new(mesh.nodes.len(), mesh.tets.len()));
+        let options = BuildOptions {
+            reorient: spec.mesh.reorient,
+        };
+        scene
+            .build(&mesh.nodes, &mesh.tets, &spec.material, options)
+            .map_err(|e| {
+                let hint = if matches!(e, corofem::Error::InvertedElement { .. }) {
+                    " (or set `reorient = true` in [mesh])"
+                } else {
+                    ""
+                };
+                CliError(format!(
+                    "{file}: [mesh] {}: cannot build the scene: {e}{hint}",
+                    mesh.name
+                ))
+            })?;
+        scene
+            .set_settings(spec.settings)
+            .map_err(|e| CliError(format!("{file}: [solver]: {e}")))?;
+        let rest = &mesh.nodes;
+        for sel in &spec.fixed {
+            let ids = select::resolve(sel, rest, file)?;
+            scene
+                .fix_nodes(&ids)
+                .map_err(|e| CliError(format!("{file}: {}: {e}", sel.label)))?;
+        }
+        if !spec.forces.is_empty() {
+            let mut per_node = vec![[0.0f64; 3]; rest.len()];
+            for f in &spec.forces {
+                let ids = select::resolve(&f.selection, rest, file)?;
+                let share = 1.0 / ids.len() as f64;
+                for &i in &ids {
+                    for (acc, t) in per_node[i as usize].iter_mut().zip(f.total) {
+                        *acc += f64::from(t) * share;
+                    }
+                }
+            }
+            for (i, f) in per_node.iter().enumerate() {
+                if *f != [0.0; 3] {
+                    scene
+                        .set_force(i, f.map(|x| x as f32))
+                        .map_err(|e| CliError(format!("{file}: [[force]]: {e}")))?;
+                }
+            }
+        }
+        if let Some(plane) = spec.ground {
+            scene
+                .set_ground(Some(plane))
+                .map_err(|e| CliError(format!("{file}: [world] ground: {e}")))?;
+        }
+        if let Some(init) = spec.initial {
+            let v = initial_velocities(&scene, init.velocity, init.angular_velocity);
+            scene
+                .set_velocities(&v)
+                .map_err(|e| CliError(format!("{file}: [initial]: {e}")))?;
+        }
+        let tool = match &spec.tool {
+            None => None,
+            Some(t) => {
+                let nodes = select::resolve(&t.selection, rest, file)?;
+                scene
+                    .grab(&nodes, t.stiffness)
+                    .map_err(|e| CliError(format!("{file}: [tool]: {e}")))?;
+                let origin = scene.tool_target().map(f64::from);
+                let release_step = t
+                    .release
+                    .map(|r| (r / spec.dt - 1e-9).ceil().max(0.0) as u64);
+                Some(Tool {
+                    spec: t,
+                    nodes,
+                    origin,
+                    release_step,
+                })
+            }
+        };
+        let n = scene.node_count();
+        Ok(Sim {
+            spec,
+            scene,
+            tool,
+            forces: vec![[0.0; 3]; n],
+        })
+    }
+
+    /// Time steps with history records, material changes, the tool and the
+    /// divergence checks.
+    fn simulate(&mut self, mut vtk: Option<&mut VtkSeries>, quiet: bool) -> CliResult<Outcome> {
+        let spec = self.spec;
+        let steps = spec.steps;
+        let mut history = Vec::with_capacity((steps / spec.every + 2) as usize);
+        let first = self.record(0, 0.0, &StepStats::default())?;
+        self.push(&mut history, first, vtk.as_deref_mut())?;
+        let mut ms = Vec::with_capacity(steps as usize);
+        let mut extremes = Extremes::default();
+        let mut changes = spec.material_changes.iter().peekable();
+        let mut progress = Progress::new(steps, "steps", quiet);
+        let loop_start = Instant::now();
+        for k in 0..steps {
+            while let Some(c) = changes.next_if(|c| c.step == k) {
+                self.scene.set_young_all(c.young).map_err(|e| {
+                    CliError(format!(
+                        "{}: [[material_change]] at step {k}: {e}",
+                        spec.file
+                    ))
+                })?;
+            }
+            let t_end = time(k + 1, spec.dt);
+            let target = match &self.tool {
+                Some(tool) if self.scene.is_grabbing() => {
+                    if tool.release_step.is_some_and(|r| k >= r) {
+                        self.scene.release();
+                        None
+                    } else {
+                        Some(tool.target(t_end))
+                    }
+                }
+                _ => None,
+            };
+            let start = Instant::now();
+            let stepped = match target {
+                Some(x) => self.scene.step_haptic(x),
+                None => self.scene.step(),
+            };
+            ms.push(start.elapsed().as_secs_f64() * 1e3);
+            let diverged = |why: String| {
+                CliError(format!(
+                    "{}: diverged at step {} of {steps} (t = {t_end} s): {why}",
+                    spec.file,
+                    k + 1
+                ))
+            };
+            let stats = stepped.map_err(|e| diverged(e.to_string()))?;
+            if !stats.cg_residual.is_finite() {
+                return Err(diverged("the CG residual is not finite".into()));
+            }
+            if !stats.tool_force.iter().all(|x| x.is_finite()) {
+                return Err(diverged("the tool force is not finite".into()));
+            }
+            extremes.inverted = extremes.inverted.max(stats.inverted);
+            extremes.tool_force = extremes.tool_force.max(norm(stats.tool_force));
+            let done = k + 1;
+            if done % spec.every == 0 || done == steps {
+                let entry = self.record(done, t_end, &stats)?;
+                extremes.inverted = extremes.inverted.max(entry.inverted);
+                self.push(&mut history, entry, vtk.as_deref_mut())?;
+            }
+            progress.set(done);
+        }
+        progress.finish();
+        Ok(Outcome {
+            steps,
+            converged: None,
+            timing: Timing::from_samples(ms, loop_start.elapsed().as_secs_f64()),
+            history,
+            extremes,
+        })
+    }
+
+    /// Newton iterations one at a time, each recorded.
+    fn solve_static(
+        &mut self,
+        st: &StaticSpec,
+        mut vtk: Option<&mut VtkSeries>,
+        quiet: bool,
+    ) -> CliResult<Outcome> {
+        let file = &self.spec.file;
+        if let Some(tool) = &self.tool {
+            let target = tool.target(tool.spec.path.end_time());
+            self.scene
+                .set_tool_target(target)
+                .map_err(|e| CliError(format!("{file}: [tool] path: {e}")))?;
+        }
+        let mut history = Vec::new();
+        let mut ms = Vec::new();
+        let mut extremes = Extremes::default();
+        let mut converged = false;
+        let mut progress = Progress::new(u64::from(st.max_iterations), "Newton iterations", quiet);
+        let loop_start = Instant::now();
+        for it in 1..=u64::from(st.max_iterations) {
+            let start = Instant::now();
+            let newton = self.scene.solve_static(&st.settings, |_| {}).map_err(|e| {
+                CliError(format!(
+                    "{file}: [solver] static = true: failed at Newton iteration {it}: {e}"
+                ))
+            })?;
+            ms.push(start.elapsed().as_secs_f64() * 1e3);
+            let stats = StepStats {
+                cg_iterations: newton.cg_iterations,
+                cg_residual: newton.cg_residual,
+                inverted: newton.inverted,
+                tool_force: self.static_tool_force(),
+                ..StepStats::default()
+            };
+            let mut entry = self.record(it, 0.0, &stats)?;
+            entry.newton_residual = Some(newton.residual);
+            entry.newton_update = Some(newton.update);
+            if let Some(what) = entry.non_finite() {
+                return Err(CliError(format!(
+                    "{file}: [solver] static = true: diverged at Newton iteration {it}: the {what} is not finite"
+                )));
+            }
+            extremes.inverted = extremes.inverted.max(entry.inverted);
+            extremes.tool_force = extremes.tool_force.max(norm(entry.tool_force));
+            self.push(&mut history, entry, vtk.as_deref_mut())?;
+            progress.set(it);
+            if newton.converged {
+                converged = true;
+                break;
+            }
+        }
+        progress.finish();
+        if !converged && !quiet {
+            eprintln!(
+                "warning: {file}: the static solve did not converge in {} Newton iterations (raise [solver] newton_iterations, or cg_iterations if set low)",
+                st.max_iterations
+            );
+        }
+        Ok(Outcome {
+            steps: history.len() as u64,
+            converged: Some(converged),
+            timing: Timing::from_samples(ms, loop_start.elapsed().as_secs_f64()),
+            history,
+            extremes,
+        })
+    }
+
+    /// Force the body exerts on the tool's spring in a static solve (N):
+    /// `k (centroid − target)`.
+    fn static_tool_force(&self) -> [f32; 3] {
+        let Some(tool) = &self.tool else {
+            return [0.0; 3];
+        };
+        let mut c = [0.0f64; 3];
+        for &i in &tool.nodes {
+            let p = self.scene.position(i as usize).unwrap_or_default();
+            for k in 0..3 {
+                c[k] += f64::from(p[k]);
+            }
+        }
+        let n = tool.nodes.len().max(1) as f64;
+        let target = self.scene.tool_target();
+        let k = f64::from(tool.spec.stiffness);
+        [0, 1, 2].map(|j| (k * (c[j] / n - f64::from(target[j]))) as f32)
+    }
+
+    /// A history record of the current state.
+    fn record(&mut self, step: u64, t: f64, stats: &StepStats) -> CliResult<HistoryEntry> {
+        let inverted = self
+            .scene
+            .elastic_forces(&mut self.forces)
+            .map_err(|e| CliError(format!("{}: diagnostics: {e}", self.spec.file)))?;
+        let entry = HistoryEntry {
+            step,
+            t,
+            kinetic_energy: self.scene.kinetic_energy(),
+            elastic_energy: self.scene.elastic_energy(),
+            momentum: self.scene.momentum(),
+            angular_momentum: self.scene.angular_momentum(),
+            inverted,
+            cg_iterations: stats.cg_iterations,
+            cg_residual: stats.cg_residual,
+            tool_force: stats.tool_force,
+            newton_residual: None,
+            newton_update: None,
+        };
+        if let Some(what) = entry.non_finite() {
+            let file = &self.spec.file;
+            return Err(CliError(match self.spec.static_solve {
+                Some(_) => format!(
+                    "{file}: [solver] static = true: diverged at Newton iteration {step}: the {what} is not finite"
+                ),
+                None => format!(
+                    "{file}: diverged at step {step} of {} (t = {t} s): the {what} is not finite",
+                    self.spec.steps
+                ),
+            }));
+        }
+        Ok(entry)
+    }
+
+    /// Appends a record and writes its VTK frame.
+    fn push(
+        &self,
+        history: &mut Vec<HistoryEntry>,
+        entry: HistoryEntry,
+        vtk: Option<&mut VtkSeries>,
+    ) -> CliResult<()> {
+        if let Some(series) = vtk {
+            let x: Vec<[f32; 3]> = self.scene.positions().collect();
+            let v: Vec<[f32; 3]> = self.scene.velocities().collect();
+            // Static solves have no time: the iteration number stands in.
+            let t = if self.spec.static_solve.is_some() {
+                entry.step as f64
+            } else {
+                entry.t
+            };
+            series
+                .write_frame(t, &x, &v)
+                .map_err(|e| CliError(format!("--vtk: {e}")))?;
+        }
+        history.push(entry);
+        Ok(())
+    }
+
+    /// Final positions, velocities and inverted count, all finite.
+    fn final_state(&mut self) -> CliResult<FinalState> {
+        let positions: Vec<[f32; 3]> = self.scene.positions().collect();
+        let velocities: Vec<[f32; 3]> = self.scene.velocities().collect();
+        let finite = |v: &[[f32; 3]]| v.iter().flatten().all(|x| x.is_finite());
+        if !finite(&positions) || !finite(&velocities) {
+            return Err(CliError(format!(
+                "{}: the final state has non-finite positions or velocities",
+                self.spec.file
+            )));
+        }
+        let inverted = self
+            .scene
+            .elastic_forces(&mut self.forces)
+            .map_err(|e| CliError(format!("{}: diagnostics: {e}", self.spec.file)))?;
+        Ok(FinalState {
+            positions,
+            velocities,
+            inverted,
+        })
+    }
+}
+
+/// `v = v₀ + ω × (x − c)` for every node, `c` the mass-weighted centroid.
+fn initial_velocities(scene: &HeapScene, v0: [f64; 3], omega: [f64; 3]) -> Vec<[f32; 3]> {
+    let n = scene.node_count();
+    let (mut m_sum, mut c) = (0.0f64, [0.0f64; 3]);
+    for i in 0..n {
+        let m = f64::from(scene.mass(i).unwrap_or(0.0));
+        let x = scene.position(i).unwrap_or_default();
+        m_sum += m;
+        for k in 0..3 {
+            c[k] += m * f64::from(x[k]);
+        }
+    }
+    let c = c.map(|x| x / m_sum.max(f64::MIN_POSITIVE));
+    scene
+        .positions()
+        .map(|x| {
+            let r = [0, 1, 2].map(|k| f64::from(x[k]) - c[k]);
+            let w = [
+                omega[1] * r[2] - omega[2] * r[1],
+                omega[2] * r[0] - omega[0] * r[2],
+                omega[0] * r[1] - omega[1] * r[0],
+            ];
+            [0, 1, 2].map(|k| (v0[k] + w[k]) as f32)
+        })
+        .collect()
+}
+
+/// `k · dt` (s), rounded to 12 significant digits so that `0.1` prints as `0.1`.
+fn time(k: u64, dt: f64) -> f64 {
+    let t = k as f64 * dt;
+    format!("{t:.11e}").parse().unwrap_or(t)
+}
+
+fn norm(v: [f32; 3]) -> f32 {
+    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
+}
+
+/// The one-paragraph summary printed on stderr.
+fn summary(
+    spec: &SceneSpec,
+    mesh: &CoreMesh,
+    r: &RunResult,
+    extremes: &Extremes,
+    out: &Destination,
+) -> String {
+    let last = r.history.last();
+    let ke = last.map_or(0.0, |h| h.kinetic_energy);
+    let ee = last.map_or(0.0, |h| h.elastic_energy);
+    let max_disp = r
+        .final_state
+        .positions
+        .iter()
+        .zip(&mesh.nodes)
+        .map(|(x, x0)| norm([x[0] - x0[0], x[1] - x0[1], x[2] - x0[2]]))
+        .fold(0.0f32, f32::max);
+    let what = format!(
+        "{} ({}, {} nodes, {} tets, {})",
+        spec.file, r.method, r.mesh.nodes, r.mesh.tets, mesh.name
+    );
+    let work = match r.static_solve {
+        Some(s) => format!(
+            "static solve: {} Newton iterations, {}",
+            r.steps,
+            if s.converged {
+                "converged"
+            } else {
+                "NOT converged"
+            }
+        ),
+        None => format!("{} steps of {} s", r.steps, spec.dt),
+    };
+    let dest = match out {
+        Destination::File(p) => p.display().to_string(),
+        Destination::Stdout => "standard output".into(),
+    };
+    format!(
+        "{what}: {work} in {:.3} s, {:.4} ms per {} (median; min {:.4}). \
+         Final kinetic energy {ke:.4e} J, elastic energy {ee:.4e} J, largest displacement {max_disp:.4} m, \
+         {} inverted elements at the end (at most {} during the run), max |tool force| {:.4} N. \
+         Result written to {dest}.",
+        r.timing.total_s,
+        r.timing.ms_per_step_median,
+        if r.static_solve.is_some() { "iteration" } else { "step" },
+        r.timing.ms_per_step_min,
+        r.final_state.inverted,
+        extremes.inverted,
+        extremes.tool_force,
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn times_print_cleanly() {
+        assert_eq!(time(100, 0.001), 0.1);
+        assert_eq!(time(3, 0.1), 0.3);
+        assert_eq!(time(0, 0.001), 0.0);
+    }
+}

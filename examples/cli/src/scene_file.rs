@@ -1,0 +1,1018 @@
+//! The scene file: strict TOML structures (unknown keys are errors) and their
+//! validation into a [`SceneSpec`] whose values are all in range.
+//!
+//! Every error names the file, the key and what was expected, in the form
+//! `liver_pull.toml: [material] poisson = 0.6: expected 0 <= poisson < 0.5`.
+//! Syntax and type errors found by the TOML parser name the file, line and
+//! column, the enclosing section, and show the offending line.
+
+use std::fmt::{self, Display};
+use std::path::{Path, PathBuf};
+
+use corofem::{BoxMesh, Material, Method, Plane, Settings, StaticSettings};
+use serde::Deserialize;
+
+use crate::error::{CliError, CliResult};
+use crate::tool_path::ToolPath;
+
+// ---------------------------------------------------------------------------
+// Raw TOML structures: exactly the keys of SCENE_FORMAT.md plus the documented
+// additions (`[mesh] reorient`, `[solver] warm_start`, `newton_iterations`,
+// `newton_tolerance`).
+// ---------------------------------------------------------------------------
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawScene {
+    mesh: RawMesh,
+    #[serde(default)]
+    material: RawMaterial,
+    #[serde(default)]
+    solver: RawSolver,
+    #[serde(default)]
+    world: RawWorld,
+    #[serde(default)]
+    fixed: Vec<RawSelection>,
+    #[serde(default)]
+    force: Vec<RawForce>,
+    initial: Option<RawInitial>,
+    #[serde(default)]
+    material_change: Vec<RawMaterialChange>,
+    tool: Option<RawTool>,
+    #[serde(default)]
+    output: RawOutput,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawMesh {
+    file: Option<String>,
+    generator: Option<String>,
+    size: Option<[f64; 3]>,
+    cells: Option<[i64; 3]>,
+    tets_per_cell: Option<i64>,
+    scale: Option<f64>,
+    reorient: Option<bool>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawMaterial {
+    young: Option<f64>,
+    poisson: Option<f64>,
+    density: Option<f64>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawSolver {
+    method: Option<String>,
+    dt: Option<f64>,
+    steps: Option<i64>,
+    cg_iterations: Option<i64>,
+    cg_tolerance: Option<f64>,
+    rayleigh_mass: Option<f64>,
+    rayleigh_stiffness: Option<f64>,
+    #[serde(rename = "static")]
+    static_solve: Option<bool>,
+    warm_start: Option<bool>,
+    newton_iterations: Option<i64>,
+    newton_tolerance: Option<f64>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawWorld {
+    gravity: Option<[f64; 3]>,
+    ground: Option<RawPlane>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawPlane {
+    normal: [f64; 3],
+    #[serde(default)]
+    offset: f64,
+}
+
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawBox {
+    min: [f64; 3],
+    max: [f64; 3],
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawSelection {
+    #[serde(rename = "box")]
+    bbox: Option<RawBox>,
+    nodes: Option<Vec<i64>>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawForce {
+    #[serde(rename = "box")]
+    bbox: Option<RawBox>,
+    nodes: Option<Vec<i64>>,
+    total: [f64; 3],
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawInitial {
+    velocity: Option<[f64; 3]>,
+    angular_velocity: Option<[f64; 3]>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawMaterialChange {
+    step: i64,
+    young: f64,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawTool {
+    #[serde(rename = "box")]
+    bbox: Option<RawBox>,
+    nodes: Option<Vec<i64>>,
+    stiffness: f64,
+    path: Option<Vec<[f64; 4]>>,
+    release: Option<f64>,
+}
+
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawOutput {
+    every: Option<i64>,
+}
+
+// ---------------------------------------------------------------------------
+// Validated scene.
+// ---------------------------------------------------------------------------
+
+/// Where the mesh comes from.
+#[derive(Debug, Clone, PartialEq)]
+pub enum MeshSource {
+    /// A mesh file, resolved against the scene file's folder; `given` is the
+    /// path as written in the scene.
+    File {
+        /// Resolved path.
+        path: PathBuf,
+        /// The `file` value as written.
+        given: String,
+    },
+    /// A generated box.
+    Box(BoxMesh),
+}
+
+/// The validated `[mesh]` table.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MeshSpec {
+    /// File or generator.
+    pub source: MeshSource,
+    /// Coordinate factor (`> 0`).
+    pub scale: f64,
+    /// Re-orient negatively oriented tetrahedra instead of rejecting them.
+    pub reorient: bool,
+}
+
+/// Nodes chosen by an axis-aligned box, an index list, or both (their union).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Selection {
+    /// Where the selection was written, e.g. `[[fixed]] #2` or `[tool]`.
+    pub label: String,
+    /// Box `(min, max)` in scaled mesh coordinates (m), inclusive.
+    pub bbox: Option<([f32; 3], [f32; 3])>,
+    /// Explicit node indices (each `>= 0`; checked against the mesh later).
+    pub nodes: Vec<u64>,
+}
+
+/// A `[[force]]` entry.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ForceSpec {
+    /// The nodes the force is spread over.
+    pub selection: Selection,
+    /// Total force (N).
+    pub total: [f32; 3],
+}
+
+/// The `[initial]` table.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct InitialSpec {
+    /// Translation velocity (m/s).
+    pub velocity: [f64; 3],
+    /// Angular velocity about the mass-weighted centroid (rad/s).
+    pub angular_velocity: [f64; 3],
+}
+
+/// A `[[material_change]]` entry.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MaterialChange {
+    /// Applied after this many steps, before the next one.
+    pub step: u64,
+    /// New Young's modulus of every element (Pa).
+    pub young: f32,
+}
+
+/// The `[tool]` table.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ToolSpec {
+    /// The grabbed nodes.
+    pub selection: Selection,
+    /// Total spring stiffness (N/m).
+    pub stiffness: f32,
+    /// Target offset from the grabbed nodes' initial centroid over time.
+    pub path: ToolPath,
+    /// Time (s) from which the tool lets go.
+    pub release: Option<f64>,
+}
+
+/// A fully validated scene.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SceneSpec {
+    /// The scene file as given on the command line (used in messages).
+    pub file: String,
+    /// `[mesh]`.
+    pub mesh: MeshSpec,
+    /// `[material]`.
+    pub material: Material,
+    /// Step settings (`[solver]` and `[world] gravity`).
+    pub settings: Settings,
+    /// `[solver] dt` as written (s), for reported times.
+    pub dt: f64,
+    /// `[solver] steps` (0 for a static solve).
+    pub steps: u64,
+    /// `Some` for `[solver] static = true`.
+    pub static_solve: Option<StaticSpec>,
+    /// `[world] ground`.
+    pub ground: Option<Plane>,
+    /// `[[fixed]]` entries.
+    pub fixed: Vec<Selection>,
+    /// `[[force]]` entries.
+    pub forces: Vec<ForceSpec>,
+    /// `[initial]`.
+    pub initial: Option<InitialSpec>,
+    /// `[[material_change]]` entries, sorted by step (stable).
+    pub material_changes: Vec<MaterialChange>,
+    /// `[tool]`.
+    pub tool: Option<ToolSpec>,
+    /// `[output] every`.
+    pub every: u64,
+}
+
+/// Settings of a static solve.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StaticSpec {
+    /// Newton iterations at most.
+    pub max_iterations: u32,
+    /// Per-solve settings (`max_iterations` is run one at a time by the CLI).
+    pub settings: StaticSettings,
+}
+
+/// Default `[output] every`.
+pub const DEFAULT_EVERY: u64 = 10;
+/// Largest node count the core addresses (u16 indices).
+pub const MAX_NODES: usize = 1 << 16;
+
+/// Reads and validates a scene file. `file` is used in messages as given.
+pub fn load(path: &Path) -> CliResult<SceneSpec> {
+    let file = path.display().to_string();
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| CliError(format!("{file}: cannot read the scene file: {e}")))?;
+    let base = path.parent().unwrap_or(Path::new(""));
+    parse(&text, &file, base)
+}
+
+/// Parses and validates scene text. `file` names it in messages; relative
+/// mesh paths are resolved against `base`.
+pub fn parse(text: &str, file: &str, base: &Path) -> CliResult<SceneSpec> {
+    let raw: RawScene = toml::from_str(text).map_err(|e| toml_error(file, text, &e))?;
+    Ctx { file }.validate(raw, base)
+}
+
+/// Formats a TOML parse or type error: `file:line:col: [section] message`
+/// followed by the offending line.
+fn toml_error(file: &str, text: &str, e: &toml::de::Error) -> CliError {
+    let message = e.message().trim_end();
+    let Some(span) = e.span() else {
+        return CliError(format!("{file}: {message}"));
+    };
+    if span.start == 0 && (span.end == 0 || span.end >= text.trim_end().len()) {
+        // The whole document: a missing top-level table.
+        return CliError(format!("{file}: {message} (a top-level table)"));
+    }
+    let start = span.start.min(text.len());
+    let before = &text[..start];
+    let line = before.matches('\n').count() + 1;
+    let line_start = before.rfind('\n').map_or(0, |i| i + 1);
+    let col = before[line_start..].chars().count() + 1;
+    let line_text = text[line_start..].lines().next().unwrap_or("");
+    let section = enclosing_section(&text[..line_start]);
+    let section = section.map(|s| format!("{s} ")).unwrap_or_default();
+    CliError(format!(
+        "{file}:{line}:{col}: {section}{message}\n  {line} | {line_text}"
+    ))
+}
+
+/// The last table header (`[x]` or `[[x]]`) in `text`, if any.
+fn enclosing_section(text: &str) -> Option<String> {
+    text.lines().rev().find_map(|l| {
+        let l = l.split('#').next().unwrap_or("").trim();
+        (l.starts_with('[') && l.ends_with(']')).then(|| l.to_owned())
+    })
+}
+
+/// A number as it would be written in TOML (`0.6`, `1000.0`, `1e-7`).
+pub struct Num(pub f64);
+
+impl Display for Num {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{:?}", self.0)
+    }
+}
+
+/// A list of numbers as written in TOML.
+pub struct List<'a, T>(pub &'a [T]);
+
+impl<T: fmt::Debug> Display for List<'_, T> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str("[")?;
+        for (i, x) in self.0.iter().enumerate() {
+            if i > 0 {
+                f.write_str(", ")?;
+            }
+            write!(f, "{x:?}")?;
+        }
+        f.write_str("]")
+    }
+}
+
+/// A list of integers, shortened after 8 entries.
+struct Ints<'a>(&'a [i64]);
+
+impl Display for Ints<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str("[")?;
+        for (i, x) in self.0.iter().take(8).enumerate() {
+            if i > 0 {
+                f.write_str(", ")?;
+            }
+            write!(f, "{x}")?;
+        }
+        if self.0.len() > 8 {
+            write!(f, ", ... ({} in all)", self.0.len())?;
+        }
+        f.write_str("]")
+    }
+}
+
+/// Validation context: the file name for messages.
+struct Ctx<'a> {
+    file: &'a str,
+}
+
+impl Ctx<'_> {
+    /// `file: [section] key = value: expected ...`.
+    fn bad(
+        &self,
+        section: &str,
+        key: &str,
+        value: impl Display,
+        expected: impl Display,
+    ) -> CliError {
+        CliError(format!(
+            "{}: {section} {key} = {value}: expected {expected}",
+            self.file
+        ))
+    }
+
+    /// `file: [section]: message`.
+    fn bad_table(&self, section: &str, message: impl Display) -> CliError {
+        CliError(format!("{}: {section}: {message}", self.file))
+    }
+
+    /// A finite f64 that also fits f32, within `ok`.
+    fn real(
+        &self,
+        section: &str,
+        key: &str,
+        value: f64,
+        ok: impl Fn(f64) -> bool,
+        expected: &str,
+    ) -> CliResult<f32> {
+        let narrow = value as f32;
+        if value.is_finite() && narrow.is_finite() && ok(value) {
+            Ok(narrow)
+        } else {
+            Err(self.bad(section, key, Num(value), expected))
+        }
+    }
+
+    /// A vector of finite values that fit f32.
+    fn vec3(&self, section: &str, key: &str, v: [f64; 3]) -> CliResult<[f32; 3]> {
+        let out = v.map(|x| x as f32);
+        if out.iter().all(|x| x.is_finite()) {
+            Ok(out)
+        } else {
+            Err(self.bad(section, key, List(&v), "three finite numbers"))
+        }
+    }
+
+    fn int(
+        &self,
+        section: &str,
+        key: &str,
+        value: i64,
+        min: i64,
+        max: i64,
+        expected: &str,
+    ) -> CliResult<u64> {
+        if (min..=max).contains(&value) {
+            Ok(value as u64)
+        } else {
+            Err(self.bad(section, key, value, expected))
+        }
+    }
+
+    fn validate(&self, raw: RawScene, base: &Path) -> CliResult<SceneSpec> {
+        let mesh = self.mesh(raw.mesh, base)?;
+        let material = self.material(&raw.material)?;
+        let static_requested = raw.solver.static_solve.unwrap_or(false);
+        let (settings, dt, steps, static_solve) = self.solver(&raw.solver, &raw.world)?;
+        let ground = match raw.world.ground {
+            None => None,
+            Some(p) => {
+                let value = format!(
+                    "{{ normal = {}, offset = {} }}",
+                    List(&p.normal),
+                    Num(p.offset)
+                );
+                let plane = Plane {
+                    normal: p.normal.map(|x| x as f32),
+                    offset: p.offset as f32,
+                };
+                if plane.normalized().is_none() {
+                    return Err(self.bad(
+                        "[world]",
+                        "ground",
+                        value,
+                        "a finite plane with a non-zero normal",
+                    ));
+                }
+                Some(plane)
+            }
+        };
+        let fixed = raw
+            .fixed
+            .into_iter()
+            .enumerate()
+            .map(|(i, s)| self.selection(&format!("[[fixed]] #{}", i + 1), s.bbox, s.nodes))
+            .collect::<CliResult<Vec<_>>>()?;
+        let mut forces = Vec::with_capacity(raw.force.len());
+        for (i, f) in raw.force.into_iter().enumerate() {
+            let label = format!("[[force]] #{}", i + 1);
+            let total = self.vec3(&label, "total", f.total)?;
+            forces.push(ForceSpec {
+                selection: self.selection(&label, f.bbox, f.nodes)?,
+                total,
+            });
+        }
+        let initial = match raw.initial {
+            None => None,
+            Some(init) => {
+                let velocity = init.velocity.unwrap_or([0.0; 3]);
+                let angular_velocity = init.angular_velocity.unwrap_or([0.0; 3]);
+                self.vec3("[initial]", "velocity", velocity)?;
+                self.vec3("[initial]", "angular_velocity", angular_velocity)?;
+                Some(InitialSpec {
+                    velocity,
+                    angular_velocity,
+                })
+            }
+        };
+        let mut material_changes = Vec::with_capacity(raw.material_change.len());
+        for (i, c) in raw.material_change.iter().enumerate() {
+            let label = format!("[[material_change]] #{}", i + 1);
+            let max = if static_requested {
+                i64::MAX
+            } else {
+                steps as i64 - 1
+            };
+            let expected = format!("a step number from 0 to {max} (steps = {steps})");
+            let step = self.int(&label, "step", c.step, 0, max, &expected)?;
+            let young = self.real(&label, "young", c.young, |y| y >= 0.0, "young >= 0 (Pa)")?;
+            material_changes.push(MaterialChange { step, young });
+        }
+        material_changes.sort_by_key(|c| c.step);
+        let tool = raw.tool.map(|t| self.tool(t)).transpose()?;
+        let every = match raw.output.every {
+            None => DEFAULT_EVERY,
+            Some(n) => self.int("[output]", "every", n, 1, i64::MAX, "a whole number >= 1")?,
+        };
+        Ok(SceneSpec {
+            file: self.file.to_owned(),
+            mesh,
+            material,
+            settings,
+            dt,
+            steps,
+            static_solve,
+            ground,
+            fixed,
+            forces,
+            initial,
+            material_changes,
+            tool,
+            every,
+        })
+    }
+
+    fn mesh(&self, m: RawMesh, base: &Path) -> CliResult<MeshSpec> {
+        const S: &str = "[mesh]";
+        let scale = match m.scale {
+            None => 1.0,
+            Some(s) => {
+                let ok = s.is_finite() && s > 0.0;
+                if !ok {
+                    return Err(self.bad(S, "scale", Num(s), "a factor > 0"));
+                }
+                s
+            }
+        };
+        let source = match (m.file, m.generator) {
+            (Some(_), Some(g)) => {
+                return Err(self.bad(
+                    S,
+                    "generator",
+                    format!("{g:?}"),
+                    "either `file` or `generator`, not both",
+                ))
+            }
+            (None, None) => {
+                return Err(self.bad_table(S, "expected `file = \"...\"` or `generator = \"box\"`"))
+            }
+            (Some(file), None) => {
+                for (key, given) in [
+                    ("size", m.size.is_some()),
+                    ("cells", m.cells.is_some()),
+                    ("tets_per_cell", m.tets_per_cell.is_some()),
+                ] {
+                    if given {
+                        return Err(self.bad_table(
+                            S,
+                            format!("`{key}` is only for `generator = \"box\"`, not with `file`"),
+                        ));
+                    }
+                }
+                if file.is_empty() {
+                    return Err(self.bad(S, "file", "\"\"", "the path of a mesh file"));
+                }
+                MeshSource::File {
+                    path: base.join(&file),
+                    given: file,
+                }
+            }
+            (None, Some(g)) => {
+                if g != "box" {
+                    return Err(self.bad(S, "generator", format!("{g:?}"), "\"box\""));
+                }
+                let size = m.size.ok_or_else(|| {
+                    self.bad_table(S, "`generator = \"box\"` needs `size = [x, y, z]` (m)")
+                })?;
+                let cells = m.cells.ok_or_else(|| {
+                    self.bad_table(S, "`generator = \"box\"` needs `cells = [nx, ny, nz]`")
+                })?;
+                if !size
+                    .iter()
+                    .all(|&s| s.is_finite() && s > 0.0 && (s as f32).is_finite())
+                {
+                    return Err(self.bad(S, "size", List(&size), "three lengths > 0 (m)"));
+                }
+                if !cells
+                    .iter()
+                    .all(|&c| (1..=i64::from(u16::MAX)).contains(&c))
+                {
+                    return Err(self.bad(S, "cells", Ints(&cells), "three whole numbers >= 1"));
+                }
+                let tets_per_cell = m.tets_per_cell.unwrap_or(6);
+                if tets_per_cell != 5 && tets_per_cell != 6 {
+                    return Err(self.bad(S, "tets_per_cell", tets_per_cell, "5 or 6"));
+                }
+                let b = BoxMesh {
+                    size: size.map(|s| s as f32),
+                    cells: cells.map(|c| c as u32),
+                    tets_per_cell: tets_per_cell as u8,
+                };
+                if b.node_count() > MAX_NODES {
+                    return Err(self.bad(
+                        S,
+                        "cells",
+                        Ints(&cells),
+                        format!(
+                            "at most {MAX_NODES} nodes in all ((nx+1)(ny+1)(nz+1) = {})",
+                            b.node_count()
+                        ),
+                    ));
+                }
+                MeshSource::Box(b)
+            }
+        };
+        Ok(MeshSpec {
+            source,
+            scale,
+            reorient: m.reorient.unwrap_or(false),
+        })
+    }
+
+    fn material(&self, m: &RawMaterial) -> CliResult<Material> {
+        const S: &str = "[material]";
+        let d = Material::DEFAULT;
+        let young = match m.young {
+            None => d.young,
+            Some(y) => self.real(S, "young", y, |y| y >= 0.0, "young >= 0 (Pa)")?,
+        };
+        let poisson = match m.poisson {
+            None => d.poisson,
+            Some(p) => {
+                let v = self.real(
+                    S,
+                    "poisson",
+                    p,
+                    |p| (0.0..0.5).contains(&p),
+                    "0 <= poisson < 0.5",
+                )?;
+                // 0.4999999999 rounds to 0.5 in f32.
+                if v >= 0.5 {
+                    return Err(self.bad(S, "poisson", Num(p), "0 <= poisson < 0.5"));
+                }
+                v
+            }
+        };
+        let density = match m.density {
+            None => d.density,
+            Some(r) => self.real(S, "density", r, |r| r > 0.0, "density > 0 (kg/m^3)")?,
+        };
+        Ok(Material {
+            young,
+            poisson,
+            density,
+        })
+    }
+
+    fn solver(
+        &self,
+        s: &RawSolver,
+        w: &RawWorld,
+    ) -> CliResult<(Settings, f64, u64, Option<StaticSpec>)> {
+        const S: &str = "[solver]";
+        let d = Settings::default();
+        let method = match &s.method {
+            None => Method::DEFAULT,
+            Some(name) => Method::from_name(name).ok_or_else(|| {
+                let names: Vec<String> = Method::ALL
+                    .iter()
+                    .map(|m| format!("{:?}", m.name()))
+                    .collect();
+                self.bad(
+                    S,
+                    "method",
+                    format!("{name:?}"),
+                    format!("one of {}", names.join(", ")),
+                )
+            })?,
+        };
+        // The default as written in decimal (0.001), not its f32 value widened.
+        let dt =
+            s.dt.unwrap_or_else(|| d.dt.to_string().parse().unwrap_or(f64::from(d.dt)));
+        let dt_f32 = self.real(S, "dt", dt, |x| x > 0.0, "a time step > 0 (s)")?;
+        if dt_f32 <= 0.0 {
+            return Err(self.bad(S, "dt", Num(dt), "a time step > 0 (s)"));
+        }
+        let is_static = s.static_solve.unwrap_or(false);
+        let steps = match (s.steps, is_static) {
+            (Some(n), _) => self.int(S, "steps", n, 0, i64::MAX, "a whole number of steps >= 0")?,
+            (None, true) => 0,
+            (None, false) => {
+                return Err(self.bad_table(
+                    S,
+                    "missing `steps`: expected the number of time steps (or `static = true`)",
+                ))
+            }
+        };
+        let cg_iterations = match s.cg_iterations {
+            None => None,
+            Some(n) => Some(self.int(
+                S,
+                "cg_iterations",
+                n,
+                1,
+                i64::from(u32::MAX),
+                "a whole number >= 1",
+            )? as u32),
+        };
+        let cg_tolerance = match s.cg_tolerance {
+            None => None,
+            Some(x) => Some(self.real(
+                S,
+                "cg_tolerance",
+                x,
+                |x| x >= 0.0,
+                "a relative residual >= 0",
+            )?),
+        };
+        let rayleigh_mass = match s.rayleigh_mass {
+            None => d.rayleigh_mass,
+            Some(x) => self.real(
+                S,
+                "rayleigh_mass",
+                x,
+                |x| x >= 0.0,
+                "rayleigh_mass >= 0 (1/s)",
+            )?,
+        };
+        let rayleigh_stiffness = match s.rayleigh_stiffness {
+            None => d.rayleigh_stiffness,
+            Some(x) => self.real(
+                S,
+                "rayleigh_stiffness",
+                x,
+                |x| x >= 0.0,
+                "rayleigh_stiffness >= 0 (s)",
+            )?,
+        };
+        let gravity = match w.gravity {
+            None => d.gravity,
+            Some(g) => self.vec3("[world]", "gravity", g)?,
+        };
+        let settings = Settings {
+            method,
+            dt: dt_f32,
+            cg_iterations: if is_static {
+                d.cg_iterations
+            } else {
+                cg_iterations.unwrap_or(d.cg_iterations)
+            },
+            cg_tolerance: if is_static {
+                d.cg_tolerance
+            } else {
+                cg_tolerance.unwrap_or(d.cg_tolerance)
+            },
+            rayleigh_mass,
+            rayleigh_stiffness,
+            warm_start: s.warm_start.unwrap_or(d.warm_start),
+            gravity,
+        };
+        let static_solve = if is_static {
+            let mut st = StaticSettings::default();
+            let max_iterations = match s.newton_iterations {
+                None => st.max_iterations,
+                Some(n) => self.int(
+                    S,
+                    "newton_iterations",
+                    n,
+                    1,
+                    i64::from(u32::MAX),
+                    "a whole number >= 1",
+                )? as u32,
+            };
+            if let Some(n) = cg_iterations {
+                st.cg_iterations = n;
+            }
+            if let Some(x) = cg_tolerance {
+                st.cg_tolerance = x;
+            }
+            if let Some(x) = s.newton_tolerance {
+                st.tolerance = self.real(
+                    S,
+                    "newton_tolerance",
+                    x,
+                    |x| x >= 0.0,
+                    "a relative out-of-balance force >= 0",
+                )?;
+            }
+            st.max_iterations = 1;
+            Some(StaticSpec {
+                max_iterations,
+                settings: st,
+            })
+        } else {
+            for (key, given) in [
+                ("newton_iterations", s.newton_iterations.is_some()),
+                ("newton_tolerance", s.newton_tolerance.is_some()),
+            ] {
+                if given {
+                    return Err(self.bad_table(S, format!("`{key}` is only for `static = true`")));
+                }
+            }
+            None
+        };
+        Ok((settings, dt, steps, static_solve))
+    }
+
+    fn selection(
+        &self,
+        label: &str,
+        bbox: Option<RawBox>,
+        nodes: Option<Vec<i64>>,
+    ) -> CliResult<Selection> {
+        if bbox.is_none() && nodes.is_none() {
+            return Err(self.bad_table(
+                label,
+                "expected `box = { min = [x, y, z], max = [x, y, z] }` or `nodes = [i, ...]` (or both)",
+            ));
+        }
+        let bbox = match bbox {
+            None => None,
+            Some(b) => {
+                let min = b.min.map(|x| x as f32);
+                let max = b.max.map(|x| x as f32);
+                let finite = b.min.iter().chain(&b.max).all(|x| !x.is_nan());
+                if !finite || (0..3).any(|k| b.min[k] > b.max[k]) {
+                    return Err(self.bad(
+                        label,
+                        "box",
+                        format!("{{ min = {}, max = {} }}", List(&b.min), List(&b.max)),
+                        "min <= max in every coordinate (m)",
+                    ));
+                }
+                Some((min, max))
+            }
+        };
+        let nodes = match nodes {
+            None => Vec::new(),
+            Some(list) => {
+                if list.is_empty() && bbox.is_none() {
+                    return Err(self.bad(label, "nodes", "[]", "at least one node index"));
+                }
+                if list.iter().any(|&i| i < 0) {
+                    return Err(self.bad(label, "nodes", Ints(&list), "node indices >= 0"));
+                }
+                list.into_iter().map(|i| i as u64).collect()
+            }
+        };
+        Ok(Selection {
+            label: label.to_owned(),
+            bbox,
+            nodes,
+        })
+    }
+
+    fn tool(&self, t: RawTool) -> CliResult<ToolSpec> {
+        const S: &str = "[tool]";
+        let selection = self.selection(S, t.bbox, t.nodes)?;
+        let stiffness = self.real(
+            S,
+            "stiffness",
+            t.stiffness,
+            |k| k > 0.0,
+            "a stiffness > 0 (N/m)",
+        )?;
+        let points = t.path.unwrap_or_else(|| vec![[0.0; 4]]);
+        let shown = || {
+            let rows: Vec<String> = points.iter().take(4).map(|p| List(p).to_string()).collect();
+            let more = if points.len() > 4 { ", ..." } else { "" };
+            format!("[{}{more}]", rows.join(", "))
+        };
+        if points.is_empty() {
+            return Err(self.bad(S, "path", "[]", "at least one point [t, dx, dy, dz]"));
+        }
+        if points
+            .iter()
+            .flatten()
+            .any(|x| !x.is_finite() || !(*x as f32).is_finite())
+        {
+            return Err(self.bad(S, "path", shown(), "finite points [t, dx, dy, dz]"));
+        }
+        if points[0][0] < 0.0 {
+            return Err(self.bad(S, "path", shown(), "times t >= 0 (s)"));
+        }
+        if points.windows(2).any(|w| w[1][0] <= w[0][0]) {
+            return Err(self.bad(S, "path", shown(), "strictly increasing times t"));
+        }
+        let release = match t.release {
+            None => None,
+            Some(r) => {
+                if !(r.is_finite() && r >= 0.0) {
+                    return Err(self.bad(S, "release", Num(r), "a time >= 0 (s)"));
+                }
+                Some(r)
+            }
+        };
+        Ok(ToolSpec {
+            selection,
+            stiffness,
+            path: ToolPath::new(points),
+            release,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const BOX: &str = "[mesh]\ngenerator = \"box\"\nsize = [1.0, 0.2, 0.2]\ncells = [5, 1, 1]\n";
+
+    fn parse_str(extra: &str) -> CliResult<SceneSpec> {
+        parse(&format!("{BOX}{extra}"), "t.toml", Path::new("/scenes"))
+    }
+
+    #[test]
+    fn minimal_scene_gets_defaults() {
+        let s = parse_str("[solver]\nsteps = 3\n").unwrap();
+        assert_eq!(s.steps, 3);
+        assert_eq!(s.every, DEFAULT_EVERY);
+        assert_eq!(s.material, Material::DEFAULT);
+        assert_eq!(s.settings.method, Method::Qr);
+        assert!(s.static_solve.is_none());
+    }
+
+    #[test]
+    fn unknown_key_is_named() {
+        let e = parse_str("[solver]\nsteps = 3\nstepz = 4\n").unwrap_err().0;
+        assert!(e.contains("stepz"), "{e}");
+        assert!(e.starts_with("t.toml:7:1: [solver]"), "{e}");
+    }
+
+    #[test]
+    fn bad_poisson_names_file_key_and_range() {
+        let e = parse_str("[material]\npoisson = 0.6\n[solver]\nsteps = 1\n")
+            .unwrap_err()
+            .0;
+        assert_eq!(
+            e,
+            "t.toml: [material] poisson = 0.6: expected 0 <= poisson < 0.5"
+        );
+    }
+
+    #[test]
+    fn file_paths_are_relative_to_the_scene() {
+        let s = parse(
+            "[mesh]\nfile = \"m/liver.tetmesh\"\n[solver]\nsteps = 1\n",
+            "x.toml",
+            Path::new("/a/b"),
+        )
+        .unwrap();
+        assert_eq!(
+            s.mesh.source,
+            MeshSource::File {
+                path: PathBuf::from("/a/b/m/liver.tetmesh"),
+                given: "m/liver.tetmesh".into()
+            }
+        );
+    }
+
+    #[test]
+    fn material_change_step_must_be_within_the_run() {
+        let e = parse_str("[solver]\nsteps = 10\n[[material_change]]\nstep = 10\nyoung = 1.0\n")
+            .unwrap_err()
+            .0;
+        assert!(
+            e.contains("[[material_change]] #1 step = 10: expected a step number from 0 to 9"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn tool_path_times_must_increase() {
+        let e = parse_str(
+            "[solver]\nsteps = 1\n[tool]\nnodes = [0]\nstiffness = 1.0\npath = [[0.0, 0, 0, 0], [0.0, 1, 0, 0]]\n",
+        )
+        .unwrap_err()
+        .0;
+        assert!(e.contains("[tool] path = "), "{e}");
+        assert!(e.contains("strictly increasing"), "{e}");
+    }
+
+    #[test]
+    fn selection_needs_box_or_nodes() {
+        let e = parse_str("[solver]\nsteps = 1\n[[fixed]]\n").unwrap_err().0;
+        assert!(e.starts_with("t.toml: [[fixed]] #1: expected `box"), "{e}");
+    }
+
+    #[test]
+    fn static_without_steps_is_fine() {
+        let s = parse_str("[solver]\nstatic = true\nnewton_iterations = 7\n").unwrap();
+        let st = s.static_solve.unwrap();
+        assert_eq!(st.max_iterations, 7);
+        assert_eq!(
+            st.settings.cg_iterations,
+            StaticSettings::default().cg_iterations
+        );
+    }
+
+    #[test]
+    fn unknown_method_lists_the_names() {
+        let e = parse_str("[solver]\nsteps = 1\nmethod = \"svd\"\n")
+            .unwrap_err()
+            .0;
+        assert!(
+            e.contains("[solver] method = \"svd\": expected one of \"qr\""),
+            "{e}"
+        );
+    }
+}

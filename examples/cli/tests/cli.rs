@@ -1,0 +1,580 @@
+//! Runs the built `corofem` binary on small generated-mesh scenes and checks
+//! the result files, the error messages and the exit codes.
+
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use serde_json::Value;
+
+const BIN: &str = env!("CARGO_BIN_EXE_corofem");
+
+/// A fresh, empty folder under the system temp dir (removed on drop).
+struct TempDir(PathBuf);
+
+impl TempDir {
+    fn new(name: &str) -> TempDir {
+        static COUNT: AtomicUsize = AtomicUsize::new(0);
+        let n = COUNT.fetch_add(1, Ordering::Relaxed);
+        let dir = std::env::temp_dir().join(format!(
+            "corofem-cli-test-{}-{n}-{name}",
+            std::process::id()
+        ));
+        let _ = fs::remove_dir_all(&dir);
+        fs::create_dir_all(&dir).unwrap();
+        TempDir(dir)
+    }
+
+    fn path(&self, name: &str) -> PathBuf {
+        self.0.join(name)
+    }
+
+    fn write(&self, name: &str, text: &str) -> PathBuf {
+        let p = self.path(name);
+        fs::write(&p, text).unwrap();
+        p
+    }
+
+    fn files(&self) -> Vec<String> {
+        let mut v: Vec<String> = fs::read_dir(&self.0)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        v.sort();
+        v
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = fs::remove_dir_all(&self.0);
+    }
+}
+
+fn corofem(args: &[&str], cwd: &Path) -> Output {
+    Command::new(BIN)
+        .args(args)
+        .current_dir(cwd)
+        .output()
+        .expect("the corofem binary runs")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// Runs `scene.toml` in `dir` with `--out result.json --quiet`.
+fn run_scene(dir: &TempDir, scene: &str) -> Output {
+    dir.write("scene.toml", scene);
+    corofem(
+        &["run", "scene.toml", "--out", "result.json", "--quiet"],
+        &dir.0,
+    )
+}
+
+fn run_ok(dir: &TempDir, scene: &str) -> Value {
+    let o = run_scene(dir, scene);
+    assert!(o.status.success(), "run failed: {}", stderr(&o));
+    serde_json::from_str(&fs::read_to_string(dir.path("result.json")).unwrap()).unwrap()
+}
+
+fn run_err(dir: &TempDir, scene: &str) -> String {
+    let o = run_scene(dir, scene);
+    assert!(!o.status.success(), "run should fail");
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        !dir.path("result.json").exists(),
+        "a failed run left a result file"
+    );
+    assert_eq!(
+        dir.files(),
+        vec!["scene.toml"],
+        "a failed run left files behind"
+    );
+    stderr(&o)
+}
+
+/// A 1 × 0.2 × 0.2 m beam of 5 × 1 × 1 cells (24 nodes, 30 tets).
+const BEAM: &str = r#"
+[mesh]
+generator = "box"
+size = [1.0, 0.2, 0.2]
+cells = [5, 1, 1]
+tets_per_cell = 6
+
+[material]
+young = 1.0e6
+poisson = 0.3
+density = 1000.0
+"#;
+
+const DYNAMIC: &str = r#"
+[solver]
+method = "qr"
+dt = 0.001
+steps = 25
+cg_iterations = 10
+rayleigh_mass = 1.0
+
+[world]
+gravity = [0.0, 0.0, -9.81]
+ground = { normal = [0.0, 0.0, 1.0], offset = -0.5 }
+
+[[fixed]]
+box = { min = [-1.0, -1.0, -1.0], max = [1.0e-6, 1.0, 1.0] }
+
+[[force]]
+nodes = [5, 11]
+total = [0.0, 0.0, -2.0]
+
+[initial]
+velocity = [0.0, 0.1, 0.0]
+
+[[material_change]]
+step = 10
+young = 2.0e6
+
+[output]
+every = 10
+"#;
+
+fn vec3(v: &Value) -> [f64; 3] {
+    let a = v.as_array().expect("a vector");
+    assert_eq!(a.len(), 3);
+    [0, 1, 2].map(|k| a[k].as_f64().expect("a number"))
+}
+
+#[test]
+fn result_has_every_key_of_the_format() {
+    let dir = TempDir::new("keys");
+    let r = run_ok(&dir, &format!("{BEAM}{DYNAMIC}"));
+    assert_eq!(r["format"], "corofem-result 1");
+    assert_eq!(r["scene"], "scene.toml");
+    assert_eq!(r["mesh"]["nodes"], 24);
+    assert_eq!(r["mesh"]["tets"], 30);
+    assert_eq!(r["method"], "qr");
+    assert_eq!(r["steps"], 25);
+    for k in ["ms_per_step_median", "ms_per_step_min", "total_s"] {
+        assert!(r["timing"][k].as_f64().unwrap() >= 0.0, "timing.{k}");
+    }
+    let fin = &r["final"];
+    assert_eq!(fin["positions"].as_array().unwrap().len(), 24);
+    assert_eq!(fin["velocities"].as_array().unwrap().len(), 24);
+    for p in fin["positions"].as_array().unwrap() {
+        vec3(p);
+    }
+    assert_eq!(fin["inverted"], 0);
+    let history = r["history"].as_array().unwrap();
+    let steps: Vec<u64> = history
+        .iter()
+        .map(|h| h["step"].as_u64().unwrap())
+        .collect();
+    assert_eq!(steps, vec![0, 10, 20, 25], "step 0, every 10, and the last");
+    for h in history {
+        let keys: Vec<&str> = h.as_object().unwrap().keys().map(String::as_str).collect();
+        assert_eq!(
+            keys.len(),
+            10,
+            "exactly the format's keys in a dynamic record: {keys:?}"
+        );
+        for k in ["t", "kinetic_energy", "elastic_energy", "cg_residual"] {
+            assert!(h[k].as_f64().unwrap().is_finite(), "{k}");
+        }
+        for k in ["momentum", "angular_momentum", "tool_force"] {
+            vec3(&h[k]);
+        }
+        h["inverted"].as_u64().unwrap();
+        h["cg_iterations"].as_u64().unwrap();
+    }
+    assert_eq!(history[0]["t"], 0.0);
+    assert!(
+        history[0]["kinetic_energy"].as_f64().unwrap() > 0.0,
+        "initial velocity"
+    );
+    assert_eq!(history[1]["t"], 0.01);
+    assert_eq!(history[3]["t"], 0.025);
+    // At most cg_iterations (CG may stop at its round-off floor).
+    let cg = history[3]["cg_iterations"].as_u64().unwrap();
+    assert!((1..=10).contains(&cg), "{cg}");
+    // The clamped end did not move.
+    let p0 = vec3(&fin["positions"][0]);
+    assert_eq!(p0, [0.0, 0.0, 0.0]);
+    // No temporary file is left next to the result.
+    assert_eq!(dir.files(), vec!["result.json", "scene.toml"]);
+}
+
+#[test]
+fn unknown_key_fails_and_names_it() {
+    let dir = TempDir::new("unknown");
+    let e = run_err(
+        &dir,
+        &format!("{BEAM}[solver]\nsteps = 5\nrayleigh_mas = 1.0\n"),
+    );
+    assert!(e.contains("rayleigh_mas"), "{e}");
+    assert!(e.contains("scene.toml"), "{e}");
+    assert!(e.contains("[solver]"), "{e}");
+
+    let e = run_err(
+        &dir,
+        &format!("{BEAM}[solver]\nsteps = 5\n[wrold]\ngravity = [0.0, 0.0, 0.0]\n"),
+    );
+    assert!(e.contains("wrold"), "{e}");
+}
+
+#[test]
+fn bad_values_name_file_key_and_expectation() {
+    let dir = TempDir::new("badvalue");
+    let poisson = BEAM.replace("poisson = 0.3", "poisson = 0.6");
+    let e = run_err(&dir, &format!("{poisson}[solver]\nsteps = 5\n"));
+    assert!(
+        e.contains("scene.toml: [material] poisson = 0.6: expected 0 <= poisson < 0.5"),
+        "{e}"
+    );
+    let e = run_err(&dir, &format!("{BEAM}[solver]\nsteps = 5\ndt = -0.001\n"));
+    assert!(
+        e.contains("scene.toml: [solver] dt = -0.001: expected"),
+        "{e}"
+    );
+    let e = run_err(
+        &dir,
+        &format!("{BEAM}[solver]\nsteps = 5\n[[fixed]]\nnodes = [3, 999]\n"),
+    );
+    assert!(
+        e.contains("scene.toml: [[fixed]] #1 nodes: node 999 does not exist"),
+        "{e}"
+    );
+    let e = run_err(
+        &dir,
+        &format!("{BEAM}[solver]\nsteps = 5\nmethod = \"svd\"\n"),
+    );
+    assert!(
+        e.contains("[solver] method = \"svd\": expected one of"),
+        "{e}"
+    );
+    // A wrong type is reported by the TOML parser with file, line and section.
+    let e = run_err(&dir, &format!("{BEAM}[solver]\nsteps = \"many\"\n"));
+    assert!(e.contains("scene.toml:"), "{e}");
+    assert!(e.contains("[solver]"), "{e}");
+    assert!(e.contains("steps = \"many\""), "{e}");
+}
+
+#[test]
+fn missing_files_are_clear_errors() {
+    let dir = TempDir::new("missing");
+    let e = run_err(
+        &dir,
+        "[mesh]\nfile = \"meshes/nowhere.tetmesh\"\n[solver]\nsteps = 1\n",
+    );
+    assert!(
+        e.contains("scene.toml: [mesh] file = \"meshes/nowhere.tetmesh\""),
+        "{e}"
+    );
+    assert!(e.contains("nowhere.tetmesh"), "{e}");
+
+    let o = corofem(&["run", "absent.toml", "--out", "r.json"], &dir.0);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("absent.toml: cannot read the scene file"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!dir.path("r.json").exists());
+}
+
+#[test]
+fn diverging_run_names_the_step_and_writes_nothing() {
+    let dir = TempDir::new("diverge");
+    let e = run_err(
+        &dir,
+        &format!(
+            "{BEAM}[solver]\nsteps = 50\n[world]\ngravity = [0.0, 0.0, 0.0]\n[[force]]\nnodes = [0]\ntotal = [3.0e38, 0.0, 0.0]\n"
+        ),
+    );
+    assert!(e.contains("scene.toml: diverged at step "), "{e}");
+    assert!(e.contains(" of 50 (t = "), "{e}");
+}
+
+#[test]
+fn static_history_has_one_record_per_newton_iteration() {
+    let dir = TempDir::new("static");
+    let r = run_ok(
+        &dir,
+        &format!(
+            "{BEAM}[solver]\nstatic = true\n[[fixed]]\nbox = {{ min = [-1.0, -1.0, -1.0], max = [1.0e-6, 1.0, 1.0] }}\n"
+        ),
+    );
+    let history = r["history"].as_array().unwrap();
+    assert!(!history.is_empty());
+    assert_eq!(r["steps"].as_u64().unwrap() as usize, history.len());
+    assert_eq!(r["static"]["converged"], true);
+    for (i, h) in history.iter().enumerate() {
+        assert_eq!(h["step"].as_u64().unwrap() as usize, i + 1);
+        assert_eq!(h["kinetic_energy"], 0.0);
+        assert!(h["newton_residual"].as_f64().is_some());
+        assert!(h["newton_update"].as_f64().is_some());
+        assert!(h["cg_iterations"].as_u64().unwrap() > 0 || i + 1 == history.len());
+    }
+    for v in r["final"]["velocities"].as_array().unwrap() {
+        assert_eq!(vec3(v), [0.0; 3]);
+    }
+    // It sagged.
+    let tip = vec3(&r["final"]["positions"][5]);
+    assert!(tip[2] < -1.0e-3, "tip {tip:?}");
+}
+
+#[test]
+fn tool_scene_reports_the_tool_force_until_release() {
+    let dir = TempDir::new("tool");
+    let r = run_ok(
+        &dir,
+        &format!(
+            r#"{BEAM}
+[solver]
+dt = 0.001
+steps = 40
+cg_iterations = 10
+[world]
+gravity = [0.0, 0.0, 0.0]
+[[fixed]]
+box = {{ min = [-1.0, -1.0, -1.0], max = [1.0e-6, 1.0, 1.0] }}
+[tool]
+box = {{ min = [0.99, -1.0, -1.0], max = [1.01, 1.0, 1.0] }}
+stiffness = 1.0e4
+path = [[0.0, 0.0, 0.0, 0.0], [0.02, 0.0, 0.0, 0.1]]
+release = 0.03
+[output]
+every = 5
+"#
+        ),
+    );
+    let history = r["history"].as_array().unwrap();
+    let force = |step: u64| {
+        let h = history.iter().find(|h| h["step"] == step).unwrap();
+        vec3(&h["tool_force"])
+    };
+    assert_eq!(force(0), [0.0; 3]);
+    // Pulled up: the body pulls the tool down.
+    assert!(force(20)[2] < -1.0, "{:?}", force(20));
+    // Released after 0.03 s.
+    assert_eq!(force(40), [0.0; 3]);
+}
+
+#[test]
+fn vtk_series_has_a_frame_per_history_record() {
+    let dir = TempDir::new("vtk");
+    dir.write("scene.toml", &format!("{BEAM}{DYNAMIC}"));
+    let o = corofem(
+        &[
+            "run",
+            "scene.toml",
+            "--out",
+            "r.json",
+            "--vtk",
+            "frames",
+            "-q",
+        ],
+        &dir.0,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let frames = fs::read_dir(dir.path("frames"))
+        .unwrap()
+        .filter(|e| {
+            e.as_ref()
+                .unwrap()
+                .path()
+                .extension()
+                .is_some_and(|x| x == "vtu")
+        })
+        .count();
+    assert_eq!(frames, 4);
+    let pvd = fs::read_to_string(dir.path("frames/series.pvd")).unwrap();
+    assert_eq!(pvd.matches("<DataSet").count(), 4);
+}
+
+#[test]
+fn stdout_and_default_destinations() {
+    let dir = TempDir::new("dest");
+    dir.write("beam.toml", &format!("{BEAM}[solver]\nsteps = 3\n"));
+    let o = corofem(&["run", "beam.toml", "--out", "-", "-q"], &dir.0);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let r: Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(r["steps"], 3);
+    assert_eq!(dir.files(), vec!["beam.toml"]);
+
+    // A missing output folder is reported before the run.
+    let o = corofem(
+        &["run", "beam.toml", "--out", "nowhere/r.json", "-q"],
+        &dir.0,
+    );
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("does not exist"), "{}", stderr(&o));
+
+    // Without --out: <stem>.result.json in the current directory, and a summary.
+    let o = corofem(&["run", "beam.toml"], &dir.0);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(dir.path("beam.result.json").exists());
+    assert!(stderr(&o).contains("3 steps"), "{}", stderr(&o));
+}
+
+/// A tetmesh file with one tetrahedron, negatively oriented when `flip`.
+fn one_tet(flip: bool) -> String {
+    let tet = if flip { "0 2 1 3" } else { "0 1 2 3" };
+    format!("tetmesh 1\n4 1\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n{tet}\n")
+}
+
+#[test]
+fn mesh_paths_are_relative_to_the_scene_and_reorient_is_optional() {
+    let dir = TempDir::new("relative");
+    fs::create_dir_all(dir.path("scenes/meshes")).unwrap();
+    dir.write("scenes/meshes/flipped.tetmesh", &one_tet(true));
+    let scene = "[mesh]\nfile = \"meshes/flipped.tetmesh\"\n[solver]\nsteps = 2\n[world]\ngravity = [0.0, 0.0, 0.0]\n";
+    dir.write("scenes/s.toml", scene);
+    // Run from the parent folder: the mesh is found next to the scene.
+    let o = corofem(&["run", "scenes/s.toml", "--out", "r.json", "-q"], &dir.0);
+    assert_eq!(o.status.code(), Some(1));
+    let e = stderr(&o);
+    assert!(
+        e.contains("negatively oriented") && e.contains("reorient = true"),
+        "{e}"
+    );
+    assert!(!dir.path("r.json").exists());
+
+    dir.write(
+        "scenes/s.toml",
+        &scene.replace("[solver]", "reorient = true\n[solver]"),
+    );
+    let o = corofem(&["run", "scenes/s.toml", "--out", "r.json", "-q"], &dir.0);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
+#[test]
+fn unused_nodes_are_dropped_with_a_note() {
+    let dir = TempDir::new("unused");
+    dir.write(
+        "u.tetmesh",
+        "tetmesh 1\n5 1\n0 0 0\n1 0 0\n0 1 0\n9 9 9\n0 0 1\n0 1 2 4\n",
+    );
+    dir.write(
+        "u.toml",
+        "[mesh]\nfile = \"u.tetmesh\"\n[solver]\nsteps = 2\n[output]\nevery = 1\n",
+    );
+    let o = corofem(&["run", "u.toml", "--out", "u.json"], &dir.0);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("dropped 1 nodes"), "{}", stderr(&o));
+    let r: Value = serde_json::from_str(&fs::read_to_string(dir.path("u.json")).unwrap()).unwrap();
+    assert_eq!(r["mesh"]["nodes"], 4);
+    // Default dt 0.001, reported as written.
+    assert_eq!(r["history"][2]["t"], 0.002);
+}
+
+#[test]
+fn info_describes_a_mesh() {
+    let dir = TempDir::new("info");
+    dir.write("t.tetmesh", &one_tet(true));
+    let o = corofem(&["info", "t.tetmesh"], &dir.0);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    for word in [
+        "nodes          4 (0 unused)",
+        "tetrahedra     1",
+        "bounding box",
+        "volume",
+        "dihedral angle",
+        "1 negatively oriented",
+        "zero volume    0",
+    ] {
+        assert!(out.contains(word), "{word:?} missing in\n{out}");
+    }
+    let o = corofem(&["info", "nothing.msh"], &dir.0);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("nothing.msh"), "{}", stderr(&o));
+}
+
+#[test]
+fn usage_errors_exit_with_2() {
+    let dir = TempDir::new("usage");
+    let o = corofem(&["run"], &dir.0);
+    assert_eq!(o.status.code(), Some(2));
+    let o = corofem(&["run", "--help"], &dir.0);
+    assert!(o.status.success());
+    assert!(String::from_utf8_lossy(&o.stdout).contains("reorient = true"));
+}
+
+/// The shipped example scenes, run from a copy so their results stay out of
+/// the source tree. Scenes on `../shared/meshes` are skipped without it.
+#[test]
+fn shipped_scenes_run() {
+    let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes");
+    let shared = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/meshes");
+    let have_shared = shared.is_dir();
+    let dir = TempDir::new("shipped");
+    let mut names: Vec<PathBuf> = fs::read_dir(&scenes)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "toml"))
+        .collect();
+    names.sort();
+    assert!(names.len() >= 8, "{names:?}");
+    for scene in names {
+        let text = fs::read_to_string(&scene).unwrap();
+        if text.contains("shared/meshes") && !have_shared {
+            println!(
+                "SKIPPED {}: {} is absent",
+                scene.display(),
+                shared.display()
+            );
+            continue;
+        }
+        let out = dir.path("r.json");
+        let o = Command::new(BIN)
+            .args([
+                "run",
+                scene.to_str().unwrap(),
+                "--out",
+                out.to_str().unwrap(),
+                "-q",
+            ])
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}: {}", scene.display(), stderr(&o));
+        let r: Value = serde_json::from_str(&fs::read_to_string(&out).unwrap()).unwrap();
+        assert_eq!(r["final"]["inverted"], 0, "{}", scene.display());
+    }
+}
+
+/// The paper's claims on the shipped Figure 3 scenes: the rest-B element
+/// turns the tetrahedron, the QR element hardly does.
+#[test]
+fn figure3_ghost_torque() {
+    let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes");
+    let dir = TempDir::new("figure3");
+    let max_l = |name: &str| {
+        let out = dir.path(&format!("{name}.json"));
+        let o = Command::new(BIN)
+            .args([
+                "run",
+                scenes.join(name).to_str().unwrap(),
+                "--out",
+                out.to_str().unwrap(),
+                "-q",
+            ])
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", stderr(&o));
+        let r: Value = serde_json::from_str(&fs::read_to_string(&out).unwrap()).unwrap();
+        r["history"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|h| {
+                let l = vec3(&h["angular_momentum"]);
+                (l[0] * l[0] + l[1] * l[1] + l[2] * l[2]).sqrt()
+            })
+            .fold(0.0, f64::max)
+    };
+    let rest_b = max_l("figure3_tet.toml");
+    let qr = max_l("figure3_tet_qr.toml");
+    assert!(rest_b > 0.1, "qr-rest-b max |L| = {rest_b}");
+    assert!(qr < rest_b / 20.0, "qr max |L| = {qr}, qr-rest-b {rest_b}");
+}
