@@ -66,9 +66,13 @@
 //! | `ground`, `tool`, `statics`, `diagnostics` | ground contact, haptic tool, static solve, energies and momenta |
 //! | `full` | all of the above |
 //! | `libm` (default) / `micromath` | math backend (exactly one) |
+//! | `fpu-sqrt` | square root with the FPU's `vsqrt.f32` on bare-metal Arm hard-float targets (Cortex-M4F/M7), bit-identical to `libm` |
 //! | `defmt` | `defmt::Format` on public types |
 #![no_std]
-#![forbid(unsafe_code)]
+// No unsafe code, except the single FPU instruction behind `fpu-sqrt`
+// (math.rs), which is allowed there and nowhere else.
+#![cfg_attr(not(feature = "fpu-sqrt"), forbid(unsafe_code))]
+#![cfg_attr(feature = "fpu-sqrt", deny(unsafe_code))]
 #![warn(missing_docs)]
 #![cfg_attr(docsrs, feature(doc_cfg))]
 // `!(x > 0.0)` is the NaN-safe way to reject a value: it is true for NaN,
@@ -108,3 +112,8 @@ pub use settings::{Settings, StepStats};
 #[cfg(feature = "statics")]
 pub use statics::{NewtonStats, StaticSettings};
 pub use storage::{ArrayStorage, Node, NodeWork, SliceStorage, Storage};
+
+/// The README's code examples, compiled and run as doctests.
+#[cfg(doctest)]
+#[doc = include_str!("../../README.md")]
+pub struct ReadmeDoctests;
