@@ -113,7 +113,7 @@ pub use settings::{Settings, StepStats};
 pub use statics::{NewtonStats, StaticSettings};
 pub use storage::{ArrayStorage, Node, NodeWork, SliceStorage, Storage};
 
-/// The README's code examples, compiled and run as doctests.
-#[cfg(doctest)]
+/// The README's code examples, compiled and run as doctests (they use the tool).
+#[cfg(all(doctest, feature = "tool"))]
 #[doc = include_str!("../../README.md")]
 pub struct ReadmeDoctests;

@@ -66,9 +66,11 @@ impl BoxMesh {
     #[must_use]
     pub const fn node_count(&self) -> usize {
         let [x, y, z] = self.cells;
-        (x as usize + 1)
-            .saturating_mul(y as usize + 1)
-            .saturating_mul(z as usize + 1)
+        // `saturating_add`: `u32::MAX + 1` does not fit a 32-bit usize.
+        (x as usize)
+            .saturating_add(1)
+            .saturating_mul((y as usize).saturating_add(1))
+            .saturating_mul((z as usize).saturating_add(1))
     }
 
     /// Number of tetrahedra `nx·ny·nz·tets_per_cell` (saturating).
@@ -117,15 +119,23 @@ impl BoxMesh {
                 capacity: tets.len(),
             });
         }
-        let (nx, ny) = (cx as usize + 1, cy as usize + 1);
+        let (nx, ny) = (cx + 1, cy + 1);
         let h = [
             self.size[0] / cx as f32,
             self.size[1] / cy as f32,
             self.size[2] / cz as f32,
         ];
-        for (idx, p) in nodes.iter_mut().take(n_nodes).enumerate() {
-            let (i, j, k) = (idx % nx, (idx / nx) % ny, idx / (nx * ny));
-            *p = [i as f32 * h[0], j as f32 * h[1], k as f32 * h[2]];
+        // In index order `i + nx (j + ny k)`. Loops rather than `idx % nx`:
+        // no division, so no division-by-zero branch for the compiler to keep.
+        let mut slots = nodes.iter_mut().take(n_nodes);
+        for k in 0..=cz {
+            for j in 0..=cy {
+                for i in 0..=cx {
+                    if let Some(p) = slots.next() {
+                        *p = [i as f32 * h[0], j as f32 * h[1], k as f32 * h[2]];
+                    }
+                }
+            }
         }
         let mut out = tets.iter_mut();
         for k in 0..cz {
@@ -137,8 +147,11 @@ impl BoxMesh {
                         split
                     };
                     let id = |c: usize| {
-                        let [di, dj, dk] = CORNER[c];
-                        (i + di) + nx as u32 * ((j + dj) + ny as u32 * (k + dk))
+                        // Every split names corners 0..8; the mask shows the
+                        // compiler so (no bounds check: firmware links with
+                        // no panicking branch).
+                        let [di, dj, dk] = CORNER[c & 7];
+                        (i + di) + nx * ((j + dj) + ny * (k + dk))
                     };
                     for t in corners {
                         let mut tet = [id(t[0]), id(t[1]), id(t[2]), id(t[3])];

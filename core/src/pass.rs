@@ -15,12 +15,13 @@ pub(crate) struct PassTotals {
     pub(crate) energy: f32,
 }
 
+/// The four nodes of an element, or `None` if an index is out of range —
+/// impossible after `build` validated them, but the compiler cannot know, and
+/// skipping the element is both panic-free and cheaper than a fallback value.
 #[inline(always)]
-fn node(nodes: &[Node], i: u16) -> Node {
-    match nodes.get(usize::from(i)) {
-        Some(n) => *n,
-        None => Node::EMPTY,
-    }
+fn gather<T: Copy>(slots: &[T], ids: [u16; 4]) -> Option<[T; 4]> {
+    let get = |i: u16| slots.get(usize::from(i)).copied();
+    Some([get(ids[0])?, get(ids[1])?, get(ids[2])?, get(ids[3])?])
 }
 
 /// `[xᵢ − x_a]` for `i = b, c, d`.
@@ -56,12 +57,9 @@ pub(crate) fn forces<const WITH_KV: bool, const COMMIT: bool>(
         let mut copy = *slot;
         let el = if COMMIT { slot } else { &mut copy };
         let ids = el.nodes;
-        let n = [
-            node(nodes, ids[0]),
-            node(nodes, ids[1]),
-            node(nodes, ids[2]),
-            node(nodes, ids[3]),
-        ];
+        let Some(n) = gather(nodes, ids) else {
+            continue;
+        };
         let rest = diffs(&[n[0].x0, n[1].x0, n[2].x0, n[3].x0]);
         let du = diffs(&[n[0].u, n[1].u, n[2].u, n[3].u]);
         let out = element::forces(method, el, &rest, &du);
@@ -87,11 +85,13 @@ pub(crate) fn forces<const WITH_KV: bool, const COMMIT: bool>(
 pub(crate) fn stiffness(elems: &[Element], work: &mut [NodeWork]) {
     for el in elems {
         let ids = el.nodes;
-        let d = |i: u16| match work.get(usize::from(i)) {
-            Some(w) => w.d,
-            None => [0.0; 3],
+        let get = |i: u16| work.get(usize::from(i)).map(|w| w.d);
+        let (Some(a), Some(b), Some(c), Some(d)) =
+            (get(ids[0]), get(ids[1]), get(ids[2]), get(ids[3]))
+        else {
+            continue;
         };
-        let x = [d(ids[0]), d(ids[1]), d(ids[2]), d(ids[3])];
+        let x = [a, b, c, d];
         let kd = hform::stiffness_product(&x, &el.grad, el.lame);
         scatter(ids, &kd, |i, v| {
             if let Some(w) = work.get_mut(i) {

@@ -109,6 +109,18 @@ pub trait Storage {
     fn parts_mut(&mut self) -> (&mut [Node], &mut [NodeWork], &mut [Element]);
 }
 
+/// Borrowed storage: lets the storage live apart from the scene, e.g. an
+/// `ArrayStorage` in a zero-initialised `static` (`.bss`) while the scene
+/// header stays on the stack.
+impl<S: Storage + ?Sized> Storage for &mut S {
+    fn parts(&self) -> (&[Node], &[Element]) {
+        (**self).parts()
+    }
+    fn parts_mut(&mut self) -> (&mut [Node], &mut [NodeWork], &mut [Element]) {
+        (**self).parts_mut()
+    }
+}
+
 /// Fixed-capacity storage in plain arrays: up to `N` nodes and `T` tetrahedra.
 /// `const fn new` lets a whole scene live in a `static`.
 #[derive(Clone, Debug)]

@@ -1,0 +1,205 @@
+#!/usr/bin/env bash
+# Firmware checks (docs/firmware.md), called by .ci/run:
+#
+#  1. the host test computes the firmware scene at every size and prints its
+#     state hashes (host-tests/tests/firmware_hash.rs);
+#  2. the wasm32 module computes the same scenes under node;
+#  3. the firmware is built for thumbv7em-none-eabihf at every size and run
+#     in QEMU (mps2-an386, Cortex-M4F); it must exit 0 (plausible results)
+#     and print the host's hash. The reference size is also built with
+#     libm's software square root instead of vsqrt: same hash;
+#  4. panic-freedom: every release build above links only because no
+#     panicking branch is left (the panic handler calls an undefined
+#     symbol); the negative control adds one bounds check and must fail to
+#     link on exactly that symbol;
+#  5. the defmt log is decoded when defmt-print is installed
+#     (COROFEM_INSTALL_DEFMT_PRINT=1 installs it: ~5 minutes).
+#
+# Prints a cost table (instructions per tetrahedron-step, stack, flash,
+# RAM) and ends with "firmware: N passed, M failed"; exits non-zero on any
+# failure. Honours CARGO_TARGET_DIR (default: the workspace's target/).
+set -euo pipefail
+
+ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+export CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-$ROOT/target}"
+FW="$ROOT/examples/firmware"
+WASM="$ROOT/examples/wasm-hash"
+OUT="$CARGO_TARGET_DIR/firmware-ci"
+MODULE="$CARGO_TARGET_DIR/wasm32-unknown-unknown/release/corofem_wasm_hash.wasm"
+QEMU=(qemu-system-arm -machine mps2-an386 -cpu cortex-m4 -nographic -monitor none
+      -serial null -semihosting-config enable=on,target=native -icount shift=0 -kernel)
+REFERENCE=10x2x2
+PROOF_SYMBOL=corofem_firmware_panic_is_reachable
+
+rm -rf "$OUT"
+mkdir -p "$OUT"
+passed=0
+failed=0
+ok() { echo "ok: $*"; passed=$((passed + 1)); }
+bad() { echo "FAILED: $*" >&2; failed=$((failed + 1)); }
+step() { echo; echo "== firmware: $*"; }
+finish() {
+  echo
+  echo "firmware: $passed passed, $failed failed"
+  [ "$failed" -eq 0 ]
+}
+
+step "tools"
+if ! command -v qemu-system-arm >/dev/null; then
+  # --no-install-recommends: ~15 MB instead of ~850 MB.
+  apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends qemu-system-arm >/dev/null
+fi
+for target in thumbv7em-none-eabihf wasm32-unknown-unknown; do
+  rustup target list --installed | grep -qx "$target" || rustup target add "$target"
+done
+if ! command -v defmt-print >/dev/null && [ "${COROFEM_INSTALL_DEFMT_PRINT:-0}" = 1 ]; then
+  cargo install defmt-print --locked --quiet
+fi
+qemu-system-arm --version | head -1
+node --version
+
+# "cells=10x2x2 ... hash=0x..." lines -> "10x2x2 0x..." pairs.
+pairs() { grep -o 'cells=[0-9x]* .*hash=0x[0-9a-f]\{16\}' | sed -E 's/cells=([0-9x]+) .*hash=(0x[0-9a-f]+)/\1 \2/' | sort -u; }
+# Size in bytes of the ELF's flash (loaded: vectors, code, constants, .data's
+# initial values) and RAM (.data, .bss, .uninit) images.
+elf_sizes() {
+  python3 - "$1" <<'EOF'
+import struct, sys
+data = open(sys.argv[1], 'rb').read()
+assert data[:4] == b'\x7fELF' and data[4] == 1, 'a 32-bit ELF'
+shoff, = struct.unpack_from('<I', data, 0x20)
+shentsize, shnum = struct.unpack_from('<HH', data, 0x2e)
+flash = ram = 0
+for i in range(shnum):
+    _, kind, flags, addr, _, size = struct.unpack_from('<IIIIII', data, shoff + i * shentsize)
+    if not flags & 2 or size == 0:  # SHF_ALLOC
+        continue
+    in_ram = 0x20000000 <= addr < 0x40000000
+    if kind == 1:  # PROGBITS: stored in flash (.data as its initial values)
+        flash += size
+    if in_ram:
+        ram += size
+print(flash, ram)
+EOF
+}
+
+step "host: the firmware scene at every size"
+(cd "$ROOT" && cargo test -q -p corofem-host-tests --test firmware_hash -- --nocapture --test-threads 1) \
+  >"$OUT/host.txt" 2>&1 || { cat "$OUT/host.txt"; bad "host test"; finish; }
+pairs <"$OUT/host.txt" >"$OUT/host.hashes"
+cat "$OUT/host.hashes"
+mapfile -t SIZES < <(cut -d' ' -f1 "$OUT/host.hashes")
+[ "${#SIZES[@]}" -ge 2 ] || { bad "host test printed no sizes"; finish; }
+ok "host test (${#SIZES[@]} sizes)"
+host_hash() { awk -v s="$1" '$1 == s { print $2 }' "$OUT/host.hashes"; }
+
+step "wasm32: the same scenes under node"
+(cd "$WASM" && cargo build -q --release --target wasm32-unknown-unknown)
+if node "$WASM/hash.mjs" "$MODULE" "${SIZES[@]}" >"$OUT/wasm.txt"; then
+  cat "$OUT/wasm.txt"
+  pairs <"$OUT/wasm.txt" >"$OUT/wasm.hashes"
+  if diff -u "$OUT/host.hashes" "$OUT/wasm.hashes"; then
+    ok "wasm32 hashes equal the host's"
+  else
+    bad "wasm32 hashes differ from the host's"
+  fi
+else
+  cat "$OUT/wasm.txt"
+  bad "wasm module"
+fi
+
+# Builds the firmware (extra cargo arguments in "$@"; FW_RUSTFLAGS and
+# FW_TARGET_DIR for a tuned build), runs it in QEMU and checks its exit code
+# and hash against the host's. Leaves its output in $OUT/fw-<cells>-<variant>.*.
+run_firmware() {
+  local cells="$1" variant="$2"
+  shift 2
+  local log="$OUT/fw-$cells-$variant"
+  local tdir="${FW_TARGET_DIR:-$CARGO_TARGET_DIR}"
+  if ! (cd "$FW" && COROFEM_FW_CELLS="${cells//x/,}" CARGO_TARGET_DIR="$tdir" \
+        RUSTFLAGS="${FW_RUSTFLAGS:-}" cargo build -q --release "$@") >"$log.build" 2>&1; then
+    cat "$log.build"
+    bad "firmware $cells ($variant) does not link: a panicking branch remains (or a build error)"
+    return
+  fi
+  ok "firmware $cells ($variant): release build links, so no panicking branch remains"
+  cp "$tdir/thumbv7em-none-eabihf/release/corofem-firmware" "$log.elf"
+  local status=0
+  (cd "$OUT" && rm -f defmt.bin && timeout 300 "${QEMU[@]}" "$log.elf") >"$log.txt" 2>&1 || status=$?
+  [ -f "$OUT/defmt.bin" ] && mv "$OUT/defmt.bin" "$log.defmt"
+  cat "$log.txt"
+  local want got
+  want="$(host_hash "$cells")"
+  got="$(pairs <"$log.txt" | cut -d' ' -f2)"
+  if [ "$status" -ne 0 ]; then
+    bad "firmware $cells ($variant) exited with $status"
+  elif [ -z "$got" ] || [ "$got" != "$want" ]; then
+    bad "firmware $cells ($variant): hash ${got:-none}, host $want"
+  elif ! grep -q 'instr_per_tick=40\.000 ' "$log.txt"; then
+    bad "firmware $cells ($variant): SysTick is not counting instructions (-icount?)"
+  else
+    ok "firmware $cells ($variant) in QEMU: exit 0, hash equals the host's"
+  fi
+}
+
+step "firmware in QEMU (thumbv7em-none-eabihf, vsqrt), every size"
+for cells in "${SIZES[@]}"; do
+  run_firmware "$cells" vsqrt
+done
+step "firmware with libm's software sqrt ($REFERENCE)"
+run_firmware "$REFERENCE" libm --no-default-features
+step "firmware tuned for the Cortex-M4 (-C target-cpu=cortex-m4: VMUL+VADD instead of VMLA) ($REFERENCE)"
+FW_RUSTFLAGS="-C target-cpu=cortex-m4" FW_TARGET_DIR="$CARGO_TARGET_DIR/firmware-cortex-m4" \
+  run_firmware "$REFERENCE" cortex-m4
+
+step "panic-freedom: negative control"
+if (cd "$FW" && cargo build --release --features panic-negative-control) >"$OUT/negative.txt" 2>&1; then
+  bad "the negative control linked: the panic-freedom check does not catch panics"
+elif grep -q "undefined symbol: $PROOF_SYMBOL" "$OUT/negative.txt"; then
+  grep -m1 "undefined symbol" "$OUT/negative.txt"
+  ok "negative control: one bounds check and the link fails on $PROOF_SYMBOL"
+else
+  cat "$OUT/negative.txt"
+  bad "the negative control failed for another reason"
+fi
+
+step "defmt log"
+ref_defmt="$OUT/fw-$REFERENCE-vsqrt.defmt"
+if [ ! -s "$ref_defmt" ]; then
+  bad "the firmware wrote no defmt log"
+elif command -v defmt-print >/dev/null; then
+  defmt-print -e "$OUT/fw-$REFERENCE-vsqrt.elf" stdin <"$ref_defmt" >"$OUT/defmt.txt" 2>&1 || true
+  cat "$OUT/defmt.txt"
+  if grep -q "hash $(host_hash "$REFERENCE")" "$OUT/defmt.txt"; then
+    ok "defmt log decoded, with the same hash"
+  else
+    bad "defmt log does not decode to the hash"
+  fi
+else
+  echo "defmt-print not installed: $(wc -c <"$ref_defmt") bytes of defmt frames not decoded" \
+    "(COROFEM_INSTALL_DEFMT_PRINT=1 installs it)"
+fi
+
+step "cost per scene size (Qr, 5 CG iterations, 500 steps)"
+{
+  printf '%-8s %5s %5s %-9s %10s %9s %6s %7s %6s %7s\n' \
+    cells nodes tets build instr/step instr/tet stack flash ram ram+stk
+  for f in "$OUT"/fw-*.txt; do
+    line="$(grep -m1 '^corofem-firmware ' "$f")" || continue
+    field() { sed -nE "s/.* $1=([^ ]+).*/\\1/p" <<<"$line"; }
+    read -r flash ram < <(elf_sizes "${f%.txt}.elf")
+    variant="${f##*/fw-}"
+    variant="${variant#*-}"
+    variant="${variant%.txt}"
+    printf '%-8s %5s %5s %-9s %10s %9s %6s %7s %6s %7s\n' \
+      "$(field cells)" "$(field nodes)" "$(field tets)" "$variant" "$(field instr_per_step)" \
+      "$(field instr_per_tet_step)" "$(field stack_step)" "$flash" "$ram" \
+      "$((ram + $(field stack_peak)))"
+  done | sort -k3,3n -k4,4r
+} | tee "$OUT/summary.txt"
+echo "(build: vsqrt = default (fpu-sqrt), libm = software sqrt, cortex-m4 = vsqrt and"
+echo " -C target-cpu=cortex-m4; stack: bytes of one step; flash, ram: bytes of the image;"
+echo " ram+stk: with the peak stack, which is the mesh generation's scratch)"
+
+finish

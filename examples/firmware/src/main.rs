@@ -1,0 +1,297 @@
+//! corofem on a Cortex-M4F: the scene of `scene.rs` in statics (fixed
+//! capacity, no heap, no allocator), poked by a haptic tool for
+//! `scene::STEPS` steps of 1 ms: target position in, reaction force out.
+//!
+//! Runs in QEMU (`cargo run --release`, see `.cargo/config.toml`) and
+//! reports through semihosting: one `corofem-firmware ...` text line on
+//! stdout with the state hash and the measured costs, a defmt log in
+//! `defmt.bin`, and the exit code (0 when the results are plausible).
+//!
+//! The release build is the panic-freedom proof: its panic handler calls a
+//! function that does not exist, so the image links only if the optimiser
+//! removed every panicking branch of everything it calls — the scene build,
+//! the step and the hash included (see docs/firmware.md).
+#![no_std]
+#![no_main]
+
+mod host;
+mod logger;
+mod measure;
+#[allow(dead_code)] // SIZES and REFERENCE are for the host test and CI
+mod scene;
+
+use corofem::{BoxMesh, Element, Node, NodeWork, Scene, SliceStorage, Vec3};
+use cortex_m_rt::entry;
+use cortex_m_semihosting::debug::{self, EXIT_FAILURE, EXIT_SUCCESS};
+
+use crate::host::Line;
+use crate::measure::Counter;
+
+// `pub const CELLS: [u32; 3]` from `COROFEM_FW_CELLS` (default 10,2,2).
+include!(concat!(env!("OUT_DIR"), "/cells.rs"));
+
+const MESH: BoxMesh = scene::mesh(CELLS);
+/// Node capacity: exactly the mesh.
+const N: usize = MESH.node_count();
+/// Element capacity: exactly the mesh.
+const T: usize = MESH.tet_count();
+
+/// Steps timed with 1 CG iteration after the run, to split the cost of a
+/// step into its element/node passes and its CG iterations.
+const SPLIT_STEPS: u32 = 20;
+
+/// The scene over storage in statics.
+type FwScene = Scene<SliceStorage<'static>>;
+
+#[entry]
+fn main() -> ! {
+    // The scene's storage: fixed-capacity statics, which cortex-m-rt hands
+    // over as `&'static mut`. Their initial values are all zero bits, so
+    // they go to .bss and cost no flash. (A `static StaticScene` would work
+    // too, but its header holds the default settings, which are not zero,
+    // so the whole scene would go to .data and be copied from flash.)
+    static mut NODES: [Node; N] = [Node::EMPTY; N];
+    static mut WORK: [NodeWork; N] = [NodeWork::EMPTY; N];
+    static mut ELEMS: [Element; T] = [Element::EMPTY; T];
+    let mut scene = Scene::with_storage(SliceStorage::new(NODES, WORK, ELEMS));
+    let ok = run(&mut scene);
+    debug::exit(if ok { EXIT_SUCCESS } else { EXIT_FAILURE });
+    #[allow(clippy::empty_loop)]
+    loop {}
+}
+
+/// What the firmware measured.
+#[derive(Default)]
+struct Costs {
+    /// SysTick ticks of all the haptic steps.
+    step_ticks: u64,
+    /// Ticks of the build (mesh generation, scene build, constraints).
+    setup_ticks: u64,
+    /// Ticks of `SPLIT_STEPS` steps with 1 CG iteration.
+    split_ticks: u64,
+    /// Stack bytes of one `step_haptic` call.
+    step_stack: usize,
+    /// Most stack bytes used at any time.
+    peak_stack: usize,
+}
+
+fn run(scene: &mut FwScene) -> bool {
+    measure::paint();
+    #[cfg(feature = "panic-negative-control")]
+    defmt::info!("negative control: {=u32}", negative_control());
+    let Some(cp) = cortex_m::Peripherals::take() else {
+        return false;
+    };
+    let counter = Counter::new(cp.SYST);
+    let cal = counter.calibrate();
+    let mut costs = Costs::default();
+
+    let t = counter.now();
+    let start = match setup(scene) {
+        Ok(start) => start,
+        Err(e) => {
+            defmt::error!("scene build failed: {}", e);
+            Line::new().str("corofem-firmware error=build").print();
+            return false;
+        }
+    };
+    costs.setup_ticks = u64::from(counter.since(t));
+    defmt::info!(
+        "corofem: {=u32}x{=u32}x{=u32} cells, {=usize} nodes, {=usize} tetrahedra, {} ",
+        CELLS[0],
+        CELLS[1],
+        CELLS[2],
+        scene.node_count(),
+        scene.element_count(),
+        scene.settings()
+    );
+
+    // The haptic loop, each step timed. The first step also measures its
+    // stack: everything below this frame is painted just before it.
+    let mut k = 0u32;
+    let outcome = scene::run(scene, start, |scene, target| {
+        k += 1;
+        if k == 1 {
+            costs.peak_stack = measure::stack_top() - measure::lowest_touched();
+            measure::paint();
+        }
+        let sp = measure::sp();
+        let t = counter.now();
+        let stats = scene.step_haptic(target);
+        costs.step_ticks += u64::from(counter.since(t));
+        if k == 1 {
+            costs.step_stack = sp - measure::lowest_touched();
+        }
+        if k % 100 == 0 {
+            if let Ok(s) = &stats {
+                defmt::info!("step {=u32}: {}", k, s);
+            }
+        }
+        stats
+    });
+    let outcome = match outcome {
+        Ok(o) => o,
+        Err(e) => {
+            defmt::error!("step {=u32} failed: {}", k, e);
+            Line::new().str("corofem-firmware error=step").print();
+            return false;
+        }
+    };
+    let verdict = scene::check(&outcome);
+
+    // The split: the same scene, a few more steps with 1 CG iteration.
+    let mut settings = *scene.settings();
+    settings.cg_iterations = 1;
+    let split_ok = scene.set_settings(settings).is_ok();
+    for _ in 0..SPLIT_STEPS {
+        let t = counter.now();
+        let r = scene.step_haptic(start);
+        costs.split_ticks += u64::from(counter.since(t));
+        if r.is_err() {
+            costs.split_ticks = 0;
+        }
+    }
+    costs.peak_stack = costs
+        .peak_stack
+        .max(measure::stack_top() - measure::lowest_touched());
+
+    report(&outcome, &costs, &cal, verdict, split_ok);
+    verdict.is_ok() && split_ok
+}
+
+/// Generates the mesh into scratch on the stack (freed on return) and builds
+/// the scene.
+#[inline(never)]
+fn setup(scene: &mut FwScene) -> Result<Vec3, corofem::Error> {
+    let mut nodes = [[0.0f32; 3]; N];
+    let mut tets = [[0u32; 4]; T];
+    // `black_box`: the optimiser may not specialise the build (and so the
+    // proof) on this particular size.
+    scene::setup(scene, core::hint::black_box(CELLS), &mut nodes, &mut tets)
+}
+
+fn report(
+    o: &scene::Outcome,
+    c: &Costs,
+    cal: &measure::Calibration,
+    verdict: Result<(), &'static str>,
+    split_ok: bool,
+) {
+    let tets = T as u64;
+    let steps = u64::from(o.steps.max(1));
+    let step = cal.instructions(c.step_ticks);
+    let split = cal.instructions(c.split_ticks);
+    // Per step with 5 CG iterations (c5) and with 1 (c1): one CG iteration
+    // costs (c5 − c1) / 4, the rest of the step c1 − that.
+    let c5 = step.checked_div(steps).unwrap_or(0);
+    let c1 = split.checked_div(u64::from(SPLIT_STEPS)).unwrap_or(0);
+    let cg_iter = c5.saturating_sub(c1) / 4;
+    let rest = c1.saturating_sub(cg_iter);
+    let per_tet = |v: u64| (v * 10).checked_div(tets).unwrap_or(0);
+
+    defmt::info!(
+        "hash {=u64:#018x}, peak push {=f32} N, final force {} N",
+        o.hash,
+        o.peak_push,
+        o.final_force
+    );
+    defmt::info!(
+        "{=u64} instructions per step, {=u64} per tetrahedron-step (x10); one CG iteration {=u64}, the rest {=u64}",
+        c5,
+        per_tet(c5),
+        cg_iter,
+        rest
+    );
+    defmt::info!(
+        "stack: {=usize} bytes per step, {=usize} peak; {=usize} bytes of statics",
+        c.step_stack,
+        c.peak_stack,
+        measure::static_ram()
+    );
+    match verdict {
+        Ok(()) => defmt::info!("results plausible"),
+        Err(why) => defmt::error!("results wrong: {=str}", why),
+    }
+
+    let mut l = Line::new();
+    l.str("corofem-firmware cells=")
+        .u64(CELLS[0].into())
+        .str("x")
+        .u64(CELLS[1].into())
+        .str("x")
+        .u64(CELLS[2].into())
+        .str(" nodes=")
+        .u64(N as u64)
+        .str(" tets=")
+        .u64(tets)
+        .str(" steps=")
+        .u64(o.steps.into())
+        .str(" hash=")
+        .hex64(o.hash)
+        .str(" sqrt=")
+        .str(if cfg!(feature = "fpu-sqrt") {
+            "vsqrt"
+        } else {
+            "libm"
+        })
+        .str(" instr_per_tick=")
+        .fixed(cal.instructions(1000), 3)
+        .str(" instr_per_step=")
+        .u64(c5)
+        .str(" instr_per_tet_step=")
+        .fixed(per_tet(c5), 1)
+        .str(" cg_iter_per_tet=")
+        .fixed(per_tet(cg_iter), 1)
+        .str(" rest_per_tet=")
+        .fixed(per_tet(rest), 1)
+        .str(" setup_instr=")
+        .u64(cal.instructions(c.setup_ticks))
+        .str(" stack_step=")
+        .u64(c.step_stack as u64)
+        .str(" stack_peak=")
+        .u64(c.peak_stack as u64)
+        .str(" static_ram=")
+        .u64(measure::static_ram() as u64)
+        .str(" peak_push=")
+        .newtons(o.peak_push)
+        .str(" result=")
+        .str(match (verdict, split_ok) {
+            (Ok(()), true) => "ok",
+            (Ok(()), false) => "split-failed",
+            (Err(why), _) => why,
+        });
+    l.print();
+}
+
+/// The proof's negative control (feature `panic-negative-control`): one
+/// bounds check on an index the optimiser cannot see through. With it the
+/// release build must fail to link.
+#[cfg(feature = "panic-negative-control")]
+#[inline(never)]
+fn negative_control() -> u32 {
+    let table = [1u32, 2, 3, 4];
+    table[core::hint::black_box(4usize)]
+}
+
+/// Debug builds (and `find-panics`): a panic ends the QEMU run with a
+/// failure.
+#[cfg(any(debug_assertions, feature = "find-panics"))]
+#[panic_handler]
+fn panic(_: &core::panic::PanicInfo) -> ! {
+    debug::exit(EXIT_FAILURE);
+    #[allow(clippy::empty_loop)]
+    loop {}
+}
+
+/// Release builds: the proof. `corofem_firmware_panic_is_reachable` is
+/// defined nowhere, so if any panicking branch survives optimisation, the
+/// link fails with "undefined symbol: corofem_firmware_panic_is_reachable".
+#[cfg(not(any(debug_assertions, feature = "find-panics")))]
+#[panic_handler]
+fn panic(_: &core::panic::PanicInfo) -> ! {
+    extern "Rust" {
+        fn corofem_firmware_panic_is_reachable() -> !;
+    }
+    // SAFETY: never runs: the image only links if this call is unreachable.
+    unsafe { corofem_firmware_panic_is_reachable() }
+}

@@ -1,0 +1,191 @@
+//! The firmware example's scene, defined once. Three programs run this very
+//! file and print the hash of the final state: the firmware on a Cortex-M4F
+//! (in QEMU), the wasm module (under node) and the host test
+//! `host-tests/tests/firmware_hash.rs`; CI compares the three.
+//!
+//! A beam of `cx × cy × cz` cubes of 0.1 m (6 tetrahedra each) is held at
+//! `x = 0`. A haptic tool grabs the nodes of the far face `x = 0.1 cx` with a
+//! spring and pokes: each step the device's position goes in
+//! ([`tool_target`]) and the force the body exerts on the tool comes out
+//! (`StepStats::tool_force`), as in a 1 kHz haptic loop.
+//!
+//! `no_std`, no allocation, no panicking code: only `corofem` and `core`.
+
+use corofem::{
+    BoxMesh, BuildOptions, Error, Material, Method, Scene, Settings, StepError, StepStats, Storage,
+    Vec3,
+};
+
+/// Edge of one cubic cell (m).
+pub const CELL: f32 = 0.1;
+/// Tetrahedra per cell (Kuhn split).
+pub const TETS_PER_CELL: u8 = 6;
+/// The scene sizes measured (cells along x, y, z): 48, 96, 240 and 480
+/// tetrahedra.
+pub const SIZES: [[u32; 3]; 4] = [[2, 2, 2], [4, 2, 2], [10, 2, 2], [20, 2, 2]];
+/// The reference scene: a 1 m × 0.2 m × 0.2 m beam, 99 nodes, 240 tetrahedra.
+pub const REFERENCE: [u32; 3] = [10, 2, 2];
+/// Haptic steps of 1 ms each.
+pub const STEPS: u32 = 500;
+/// Most nodes on one end face, `(cy + 1)(cz + 1)`.
+pub const MAX_FACE_NODES: usize = 64;
+
+/// A soft rubber.
+pub const MATERIAL: Material = Material {
+    young: 2.0e6,
+    poisson: 0.35,
+    density: 1000.0,
+};
+/// Stiffness of the tool's spring (N/m): a typical haptic device renders
+/// 1–3 kN/m.
+pub const TOOL_STIFFNESS: f32 = 2.0e3;
+/// How deep the tool pokes (m).
+pub const POKE_DEPTH: f32 = 0.03;
+
+/// Qr, 1 ms steps, 5 CG iterations, light Rayleigh damping. No gravity:
+/// the beam starts at rest in equilibrium, so every newton on the tool comes
+/// from the poke.
+#[must_use]
+pub const fn settings() -> Settings {
+    Settings {
+        method: Method::Qr,
+        dt: 1.0e-3,
+        cg_iterations: 5,
+        cg_tolerance: 0.0,
+        rayleigh_mass: 1.0,
+        rayleigh_stiffness: 1.0e-3,
+        warm_start: false,
+        gravity: [0.0; 3],
+    }
+}
+
+/// The beam of `cells` cubes.
+#[must_use]
+pub const fn mesh(cells: [u32; 3]) -> BoxMesh {
+    BoxMesh {
+        size: [
+            CELL * cells[0] as f32,
+            CELL * cells[1] as f32,
+            CELL * cells[2] as f32,
+        ],
+        cells,
+        tets_per_cell: TETS_PER_CELL,
+    }
+}
+
+/// Nodes of the face `x = i · CELL` of the beam, written into `out`
+/// (node `(i, j, k)` has index `i + (cx+1)(j + (cy+1) k)`, see `BoxMesh`).
+fn face(cells: [u32; 3], i: u32, out: &mut [u32; MAX_FACE_NODES]) -> &[u32] {
+    let [cx, cy, cz] = cells;
+    let mut slots = out.iter_mut();
+    let mut n = 0;
+    for k in 0..=cz {
+        for j in 0..=cy {
+            if let Some(slot) = slots.next() {
+                *slot = i + (cx + 1) * (j + (cy + 1) * k);
+                n += 1;
+            }
+        }
+    }
+    out.get(..n).unwrap_or(&[])
+}
+
+/// Builds the scene of `cells` into `scene`, using `nodes` and `tets` as
+/// scratch for the generated mesh: held at `x = 0`, the far face grabbed by
+/// the tool. Returns where the tool starts (m).
+pub fn setup<S: Storage>(
+    scene: &mut Scene<S>,
+    cells: [u32; 3],
+    nodes: &mut [Vec3],
+    tets: &mut [[u32; 4]],
+) -> Result<Vec3, Error> {
+    let face_nodes = (cells[1] as usize + 1).saturating_mul(cells[2] as usize + 1);
+    if face_nodes > MAX_FACE_NODES {
+        return Err(Error::InvalidParameter { name: "cells" });
+    }
+    let (n, t) = mesh(cells).generate(nodes, tets)?;
+    let nodes = nodes.get(..n).unwrap_or(&[]);
+    let tets = tets.get(..t).unwrap_or(&[]);
+    scene.build(nodes, tets, &MATERIAL, BuildOptions::default())?;
+    scene.set_settings(settings())?;
+    let mut ids = [0u32; MAX_FACE_NODES];
+    scene.fix_nodes(face(cells, 0, &mut ids))?;
+    scene.grab(face(cells, cells[0], &mut ids), TOOL_STIFFNESS)?;
+    Ok(scene.tool_target())
+}
+
+/// Where the haptic device holds the tool at step `k` (m): a smooth poke
+/// down (and a little sideways) and back up,
+/// `start + depth · b(s) · (0, ½, −1)` with `b(s) = 16 s² (1 − s)²`,
+/// `s = k / STEPS`: zero at both ends, 1 half way.
+#[must_use]
+pub fn tool_target(start: Vec3, k: u32) -> Vec3 {
+    let s = k as f32 * (1.0 / STEPS as f32);
+    let r = s * (1.0 - s);
+    let b = 16.0 * r * r;
+    let d = POKE_DEPTH * b;
+    [start[0], start[1] + 0.5 * d, start[2] - d]
+}
+
+/// What a run did.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Outcome {
+    /// `Scene::state_hash` after the last step.
+    pub hash: u64,
+    /// Steps run.
+    pub steps: u32,
+    /// Fewest CG iterations of a step.
+    pub min_cg_iterations: u32,
+    /// Most inverted elements at the start of a step.
+    pub max_inverted: u32,
+    /// Largest upward force on the tool (N): the beam pushing back.
+    pub peak_push: f32,
+    /// Force on the tool after the last step (N).
+    pub final_force: Vec3,
+}
+
+/// Runs [`STEPS`] haptic steps from the tool's start: `step(scene, target)`
+/// must move the tool to `target` and step (the firmware times it; the
+/// others call `Scene::step_haptic`).
+pub fn run<S: Storage>(
+    scene: &mut Scene<S>,
+    start: Vec3,
+    mut step: impl FnMut(&mut Scene<S>, Vec3) -> Result<StepStats, StepError>,
+) -> Result<Outcome, StepError> {
+    let mut out = Outcome {
+        min_cg_iterations: u32::MAX,
+        ..Outcome::default()
+    };
+    for k in 1..=STEPS {
+        let stats = step(scene, tool_target(start, k))?;
+        out.steps += 1;
+        out.min_cg_iterations = out.min_cg_iterations.min(stats.cg_iterations);
+        out.max_inverted = out.max_inverted.max(stats.inverted);
+        out.peak_push = out.peak_push.max(stats.tool_force[2]);
+        out.final_force = stats.tool_force;
+    }
+    out.hash = scene.state_hash();
+    Ok(out)
+}
+
+/// Whether a run's results are plausible, whatever the target: every step
+/// ran, each with the full 5 CG iterations, no element inverted, the beam
+/// pushed the tool back up by more than 1 N, and it ends finite.
+pub fn check(out: &Outcome) -> Result<(), &'static str> {
+    if out.steps != STEPS {
+        return Err("not every step ran");
+    }
+    if out.min_cg_iterations != settings().cg_iterations {
+        return Err("a step stopped CG early");
+    }
+    if out.max_inverted != 0 {
+        return Err("an element inverted");
+    }
+    if !(out.peak_push > 1.0 && out.peak_push < 1.0e3) {
+        return Err("implausible tool force");
+    }
+    if !out.final_force.iter().all(|f| f.is_finite()) {
+        return Err("non-finite tool force");
+    }
+    Ok(())
+}
