@@ -1,0 +1,264 @@
+/* A haptic loop through the corofem C API.
+ *
+ *   haptic_loop [MESH.tetmesh|box] [STEPS] [--rt]
+ *
+ * Builds a scene in a static buffer (no allocation anywhere), fixes part of
+ * it, grabs another part with the haptic tool, moves the tool along a fixed
+ * path for STEPS steps of 1 ms and prints the final tool force and a hash of
+ * the state. The Rust test capi/tests/haptic_loop.rs builds the same scene
+ * through the Rust API and checks that the hashes are equal; .ci/capi.sh
+ * runs this program on the host and, cross-compiled, on a Cortex-M4F in QEMU.
+ *
+ * Scenes (both must match capi/tests/haptic_loop.rs exactly):
+ *   box   (default) a 10 cm × 2 cm × 2 cm beam, 99 nodes / 240 tets,
+ *         fixed at x = 0, grabbed at x = 10 cm, pulled down and back.
+ *   MESH  SOFA's liver (sofa_liver.tetmesh) scaled by 0.03 to metres,
+ *         fixed at nodes 3, 39, 64, grabbed at its tip, pulled out and back.
+ *
+ * --rt paces the loop at 1 kHz with absolute deadlines (POSIX hosts) and
+ * reports deadline misses; without it the loop runs flat out.
+ *
+ * Build (host, from capi/, after `cargo build --release`):
+ *   cc -std=c11 -O2 -ffp-contract=off -Iinclude examples/haptic_loop.c \
+ *      ../target/release/libcorofem.a -lgcc_s -lutil -lrt -lpthread -lm -ldl -lc
+ * Cortex-M4F: see .ci/capi.sh (-DCOROFEM_BARE_METAL, cortex-m4f/startup.c
+ * and link.ld). -ffp-contract=off: the tool path must round exactly as in
+ * Rust (no fused multiply-add, which the M4F has), or the hashes differ.
+ */
+#if !defined(COROFEM_BARE_METAL)
+#define _POSIX_C_SOURCE 200809L /* clock_gettime, clock_nanosleep */
+#endif
+#include <inttypes.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "corofem.h"
+
+#if defined(COROFEM_BARE_METAL)
+#define HAVE_FILES 0
+#define HAVE_CLOCK 0
+#define MAX_NODES 512
+#define MAX_TETS 2048
+#else
+#define HAVE_FILES 1
+#define HAVE_CLOCK 1
+#define MAX_NODES 4096
+#define MAX_TETS 16384
+#include <time.h>
+#endif
+
+/* Static storage: the mesh arrays and the scene arena. */
+static float nodes[MAX_NODES * 3];
+static uint32_t tets[MAX_TETS * 4];
+static float positions[MAX_NODES * 3];
+/* Large enough for MAX_NODES / MAX_TETS with every feature (checked below). */
+static unsigned char arena[MAX_NODES * 128 + MAX_TETS * 136 + 512];
+
+#define CHECK(call)                                                              \
+    do {                                                                         \
+        corofem_status s_ = (call);                                              \
+        if (s_ != COROFEM_STATUS_OK) {                                           \
+            printf("error: %s -> %d (%s)\n", #call, (int)s_, corofem_status_str(s_)); \
+            return 1;                                                            \
+        }                                                                        \
+    } while (0)
+
+#if HAVE_FILES
+/* Reads a `tetmesh 1` file, scaling coordinates (double, as the Rust reader
+ * does, then rounded to float). Returns 0 on success. */
+static int read_tetmesh(const char *path, double scale, size_t *n, size_t *t) {
+    FILE *f = fopen(path, "r");
+    unsigned version = 0;
+    if (!f) {
+        printf("error: cannot open %s\n", path);
+        return 1;
+    }
+    unsigned long nn = 0, tt = 0;
+    if (fscanf(f, "tetmesh %u %lu %lu", &version, &nn, &tt) != 3 || version != 1 ||
+        nn > MAX_NODES || tt > MAX_TETS) {
+        printf("error: %s: bad header or too large\n", path);
+        fclose(f);
+        return 1;
+    }
+    *n = nn, *t = tt;
+    for (size_t i = 0; i < 3 * *n; i++) {
+        double x;
+        if (fscanf(f, "%lf", &x) != 1) {
+            fclose(f);
+            return 1;
+        }
+        nodes[i] = (float)(x * scale);
+    }
+    for (size_t i = 0; i < 4 * *t; i++) {
+        if (fscanf(f, "%" SCNu32, &tets[i]) != 1) {
+            fclose(f);
+            return 1;
+        }
+    }
+    fclose(f);
+    return 0;
+}
+#endif
+
+#if HAVE_CLOCK
+static int64_t now_ns(void) {
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (int64_t)ts.tv_sec * 1000000000 + ts.tv_nsec;
+}
+
+static int cmp_i64(const void *a, const void *b) {
+    int64_t x = *(const int64_t *)a, y = *(const int64_t *)b;
+    return (x > y) - (x < y);
+}
+
+static int64_t step_ns[100000];
+#endif
+
+/* The tool path: a triangle wave 0 → 1 → 0 over each second (1000 steps). */
+static float triangle(uint32_t step) {
+    float a = (float)(step % 1000u) / 1000.0f;
+    return a < 0.5f ? 2.0f * a : 2.0f - 2.0f * a;
+}
+
+int main(int argc, char **argv) {
+    const char *mesh = argc > 1 ? argv[1] : "box";
+    uint32_t steps = argc > 2 ? (uint32_t)strtoul(argv[2], NULL, 10) : 2000;
+    int rt = argc > 3 && strcmp(argv[3], "--rt") == 0;
+    (void)rt; /* unused without a clock */
+    int is_box = strcmp(mesh, "box") == 0;
+    size_t n = 0, t = 0, bytes = 0;
+    corofem_scene *scene = NULL;
+    corofem_settings settings;
+    corofem_material material;
+    float pull[3];
+
+    CHECK(corofem_settings_default(&settings));
+    settings.dt = 0.001f;
+    settings.cg_iterations = 10;
+    if (is_box) {
+        const float size[3] = {0.1f, 0.02f, 0.02f};
+        const uint32_t cells[3] = {10, 2, 2};
+        CHECK(corofem_box_mesh(size, cells, 6, nodes, 3 * MAX_NODES, tets, 4 * MAX_TETS, &n, &t));
+        material = (corofem_material){.young = 1.0e5f, .poisson = 0.4f, .density = 1000.0f};
+        settings.rayleigh_mass = 5.0f;
+        pull[0] = 0.0f, pull[1] = 0.0f, pull[2] = -0.02f;
+    } else {
+#if HAVE_FILES
+        if (read_tetmesh(mesh, 0.03, &n, &t) != 0) return 1;
+#else
+        printf("error: no files on this target\n");
+        return 1;
+#endif
+        material = (corofem_material){.young = 5.0e3f, .poisson = 0.45f, .density = 1000.0f};
+        settings.rayleigh_mass = 1.0f;
+        settings.rayleigh_stiffness = 0.01f;
+        settings.gravity[0] = 0.0f, settings.gravity[1] = -9.81f, settings.gravity[2] = 0.0f;
+        pull[0] = 0.03f, pull[1] = 0.02f, pull[2] = 0.0f;
+    }
+
+    /* The ten lines of an embedding: size, init, build, configure. */
+    CHECK(corofem_scene_bytes(n, t, &bytes));
+    if (bytes > sizeof arena) {
+        printf("error: scene needs %lu bytes, arena has %lu\n", (unsigned long)bytes,
+               (unsigned long)sizeof arena);
+        return 1;
+    }
+    CHECK(corofem_scene_init(arena, sizeof arena, n, t, &scene));
+    CHECK(corofem_build(scene, nodes, n, tets, t, &material, 0, NULL));
+    CHECK(corofem_set_settings(scene, &settings));
+
+    if (is_box) {
+        /* Node (i, j, k) has index i + 11 (j + 3 k): fix i = 0, grab i = 10. */
+        uint32_t fixed[9], tip[9];
+        for (uint32_t jk = 0; jk < 9; jk++) {
+            fixed[jk] = 11 * jk;
+            tip[jk] = 11 * jk + 10;
+        }
+        CHECK(corofem_fix_nodes(scene, fixed, 9));
+        CHECK(corofem_grab(scene, tip, 9, 500.0f));
+    } else {
+        const uint32_t fixed[3] = {3, 39, 64};
+        const uint32_t tip[5] = {80, 81, 78, 83, 82};
+        CHECK(corofem_fix_nodes(scene, fixed, 3));
+        CHECK(corofem_grab(scene, tip, 5, 2000.0f));
+    }
+
+    float start[3], force[3] = {0.0f, 0.0f, 0.0f};
+    corofem_stats stats;
+    CHECK(corofem_tool_target(scene, start));
+    /* %lu, not %zu: newlib's printf does not know %zu. */
+    printf("scene %s: %lu nodes, %lu tets, %lu bytes\n", is_box ? "box" : mesh, (unsigned long)n,
+           (unsigned long)t, (unsigned long)bytes);
+
+#if HAVE_CLOCK
+    if (steps > sizeof step_ns / sizeof step_ns[0]) steps = sizeof step_ns / sizeof step_ns[0];
+    int64_t period = 1000000, deadline = now_ns() + period;
+    uint32_t misses = 0;
+#endif
+    for (uint32_t i = 0; i < steps; i++) {
+        float a = triangle(i + 1);
+        float target[3] = {start[0] + a * pull[0], start[1] + a * pull[1], start[2] + a * pull[2]};
+#if HAVE_CLOCK
+        if (rt) {
+            struct timespec ts = {(time_t)(deadline / 1000000000), (long)(deadline % 1000000000)};
+            clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, NULL);
+        }
+        int64_t t0 = now_ns();
+#endif
+        CHECK(corofem_step_haptic(scene, target, force, &stats));
+#if HAVE_CLOCK
+        int64_t t1 = now_ns();
+        step_ns[i] = t1 - t0;
+        if (rt) {
+            if (t1 > deadline + period) misses++;
+            deadline += period;
+            while (deadline < t1) deadline += period; /* skip missed periods */
+        }
+#endif
+    }
+
+    uint64_t hash = 0;
+    CHECK(corofem_state_hash(scene, &hash));
+    CHECK(corofem_positions(scene, positions, 3 * MAX_NODES));
+    /* 64-bit values printed as 32-bit halves: newlib's <inttypes.h> lacks PRIx64. */
+    printf("steps %lu, time %.3f s, cg residual %.3e, inverted %" PRIu32 "\n", (unsigned long)stats.steps,
+           stats.time, (double)stats.cg_residual, stats.inverted);
+    printf("tool force %.6f %.6f %.6f N\n", (double)force[0], (double)force[1], (double)force[2]);
+    printf("node 0 at %.6f %.6f %.6f m\n", (double)positions[0], (double)positions[1],
+           (double)positions[2]);
+#if HAVE_CLOCK
+    if (steps > 0) {
+        qsort(step_ns, steps, sizeof step_ns[0], cmp_i64);
+        printf("step time: median %.1f us, p99 %.1f us, max %.1f us", step_ns[steps / 2] / 1e3,
+               step_ns[(size_t)steps * 99 / 100] / 1e3, step_ns[steps - 1] / 1e3);
+        if (rt) printf(", deadline misses %" PRIu32 " of %" PRIu32, misses, steps);
+        printf("\n");
+    }
+#endif
+    /* Error handling: every misuse is a status code. */
+    if (corofem_step(NULL, NULL) != COROFEM_STATUS_NULL_POINTER ||
+        corofem_fix_nodes(scene, (const uint32_t[]){100000}, 1) != COROFEM_STATUS_INDEX_OUT_OF_RANGE ||
+        corofem_positions(scene, positions, 2) != COROFEM_STATUS_BUFFER_TOO_SMALL) {
+        printf("error: misuse not reported\n");
+        return 1;
+    }
+    CHECK(corofem_scene_deinit(scene));
+    if (corofem_step(scene, NULL) != COROFEM_STATUS_INVALID_HANDLE) {
+        printf("error: dead handle not reported\n");
+        return 1;
+    }
+    /* Memory for a few scene sizes with this library's features. */
+    static const size_t sizes[][2] = {{99, 240}, {181, 596}, {512, 2058}, {882, 2851}, {2197, 10368}};
+    printf("scene bytes:");
+    for (size_t k = 0; k < sizeof sizes / sizeof sizes[0]; k++) {
+        CHECK(corofem_scene_bytes(sizes[k][0], sizes[k][1], &bytes));
+        printf(" %lu/%lu: %lu;", (unsigned long)sizes[k][0], (unsigned long)sizes[k][1],
+               (unsigned long)bytes);
+    }
+    printf("\n");
+    printf("hash %08" PRIx32 "%08" PRIx32 "\n", (uint32_t)(hash >> 32), (uint32_t)hash);
+    return 0;
+}

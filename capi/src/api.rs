@@ -1,0 +1,829 @@
+//! The exported C functions. Each checks its handle and pointers, calls the
+//! core (which returns `Result`s and never panics) and returns a status code.
+//!
+//! Common contract of every function taking pointers (the part no check can
+//! see): a non-null pointer points to memory valid for the stated number of
+//! values, not used by another thread during the call; a scene handle is
+//! used by one thread at a time and its buffer stays allocated and in place
+//! while it is used.
+
+use core::ffi::c_char;
+
+use corofem_core::{BoxMesh, BuildOptions, Vec3};
+
+use crate::arena::{self, SceneHandle};
+use crate::ptr::{disjoint, get, input, out, out_opt, output, span};
+use crate::status::{Failure, Status};
+use crate::types::{method_from_code, Material, Settings, Stats, COROFEM_BUILD_REORIENT};
+
+/// The status of an inner result.
+fn status(r: Result<(), Failure>) -> Status {
+    match r {
+        Ok(()) => Status::Ok,
+        Err(f) => f.status,
+    }
+}
+
+/// Three floats from a required pointer.
+///
+/// # Safety
+///
+/// `p` is null or points to 3 readable floats.
+unsafe fn vec3(p: *const f32, guard: Option<&SceneHandle>) -> Result<Vec3, Status> {
+    // SAFETY: forwarded contract.
+    unsafe { get(p.cast::<[f32; 3]>(), guard) }
+}
+
+/// A built scene.
+///
+/// # Safety
+///
+/// As [`arena::scene`].
+unsafe fn built<'a>(h: *mut SceneHandle) -> Result<&'a mut SceneHandle, Status> {
+    // SAFETY: forwarded contract.
+    let s = unsafe { arena::scene(h)? };
+    if s.built {
+        Ok(s)
+    } else {
+        Err(Status::NotBuilt)
+    }
+}
+
+/// The message of a status code: a static NUL-terminated string, never null.
+#[no_mangle]
+pub extern "C" fn corofem_status_str(status: i32) -> *const c_char {
+    Status::message_ptr(status)
+}
+
+/// Writes to `*out_bytes` how many bytes a scene of up to `max_nodes` nodes
+/// (1 to 65 536) and `max_tets` tetrahedra (≥ 1) needs. The size holds
+/// everything (handle, nodes, solver scratch, elements) and a few bytes of
+/// slack, so a buffer of that size works at any address.
+///
+/// # Safety
+///
+/// `out_bytes` is null or writable.
+#[no_mangle]
+pub unsafe extern "C" fn corofem_scene_bytes(
+    max_nodes: usize,
+    max_tets: usize,
+    out_bytes: *mut usize,
+) -> Status {
+    status((|| {
+        // SAFETY: the caller's contract for `out_bytes`.
+        let o = unsafe { out(out_bytes, None)? };
+        *o = arena::scene_bytes(max_nodes, max_tets)?;
+        Ok(())
+    })())
+}
+
+/// Initialises an empty scene of up to `max_nodes` nodes and `max_tets`
+/// tetrahedra in the caller's `buffer` of `buffer_bytes` bytes (at least
+/// `corofem_scene_bytes`) and writes its handle to `*out_scene`. The handle
+/// points inside the buffer; the buffer must stay in place, unused by
+/// anything else, while the scene lives. Nothing is allocated.
+///
+/// # Safety
+///
+/// `buffer` is null or valid for writes of `buffer_bytes` bytes;
+/// `out_scene` is null or writable and outside the buffer.
+#[no_mangle]
+pub unsafe extern "C" fn corofem_scene_init(
+    buffer: *mut core::ffi::c_void,
+    buffer_bytes: usize,
+    max_nodes: usize,
+    max_tets: usize,
+    out_scene: *mut *mut SceneHandle,
+) -> Status {
+    status((|| {
+        if out_scene.is_null() {
+            return Err(Status::NullPointer.into());
+        }
+        if out_scene as usize % core::mem::align_of::<*mut SceneHandle>() != 0 {
+            return Err(Status::Misaligned.into());
+        }
+        let start = buffer as usize;
+        let o = out_scene as usize;
+        if o < start.saturating_add(buffer_bytes)
+            && o.saturating_add(core::mem::size_of::<*mut SceneHandle>()) > start
+        {
+            return Err(Status::Overlap.into());
+        }
+        // SAFETY: the caller's contract for `buffer`.
+        let h = unsafe { arena::init(buffer.cast(), buffer_bytes, max_nodes, max_tets)? };
+        // SAFETY: non-null, aligned, outside the buffer, writable by contract.
+        unsafe { out_scene.write(h) };
+        Ok(())
+    })())
+}
+
+/// Ends a scene: every later call with this handle returns
+/// `COROFEM_STATUS_INVALID_HANDLE`, and the buffer may be reused or freed.
+///
+/// # Safety
+///
+/// `scene` is null or a handle whose buffer is still allocated.
+#[no_mangle]
+pub unsafe extern "C" fn corofem_scene_deinit(scene: *mut SceneHandle) -> Status {
+    status((|| {
+        // SAFETY: the caller's contract for `scene`.
+        unsafe { arena::scene(scene)? }.kill();
+        Ok(())
+    })())
+}
+
+/// Writes the node and tetrahedron counts of a generated box of
+/// `cells[0] × cells[1] × cells[2]` cubes split into `tets_per_cell` (5 or 6)
+/// tetrahedra each.
+///
+/// # Safety
+///
+/// `cells` points to 3 `uint32_t`; the outputs are null or writable.
+#[no_mangle]
+pub unsafe extern "C" fn corofem_box_mesh_counts(
+    cells: *const u32,
+    tets_per_cell: u32,
+    out_nodes: *mut usize,
+    out_tets: *mut usize,
+) -> Status {
+    status((|| {
+        disjoint(&[span(out_nodes, 1), span(out_tets, 1)])?;
+        // SAFETY: the caller's contract for every pointer.
+        let (cells, on, ot) = unsafe {
+            (
+                get(cells.cast::<[u32; 3]>(), None)?,
+                out(out_nodes, None)?,
+                out(out_tets, None)?,
+            )
+        };
+        let mesh = box_mesh(&[1.0; 3], cells, tets_per_cell)?;
+        *on = mesh.node_count();
+        *ot = mesh.tet_count();
+        Ok(())
+    })())
+}
+
+fn box_mesh(size: &Vec3, cells: [u32; 3], tets_per_cell: u32) -> Result<BoxMesh, Status> {
+    if !(tets_per_cell == 5 || tets_per_cell == 6) || cells.contains(&0) {
+        return Err(Status::InvalidArgument);
+    }
+    let mesh = BoxMesh {
+        size: *size,
+        cells,
+        tets_per_cell: tets_per_cell as u8,
+    };
+    if mesh.node_count() == usize::MAX || mesh.tet_count() == usize::MAX {
+        return Err(Status::Capacity);
+    }
+    Ok(mesh)
+}
+
+/// Generates the box `[0, size[0]] × [0, size[1]] × [0, size[2]]` (m) of
+/// `cells` cubes split into `tets_per_cell` (5 or 6) tetrahedra: node
+/// positions into `nodes` (3 floats each, `nodes_len` floats of room) and
+/// tetrahedra into `tets` (4 indices each, `tets_len` indices of room).
+/// Node `(i, j, k)` has index `i + (cx+1)(j + (cy+1) k)`. The counts go to
+/// `*out_nodes` and `*out_tets` (either may be null).
+///
+/// # Safety
+///
+/// `size` points to 3 floats, `cells` to 3 `uint32_t`; `nodes` and `tets`
+/// are writable for their lengths; the outputs are null or writable.
+#[no_mangle]
+pub unsafe extern "C" fn corofem_box_mesh(
+    size: *const f32,
+    cells: *const u32,
+    tets_per_cell: u32,
+    nodes: *mut f32,
+    nodes_len: usize,
+    tets: *mut u32,
+    tets_len: usize,
+    out_nodes: *mut usize,
+    out_tets: *mut usize,
+) -> Status {
+    status((|| {
+        // SAFETY: the caller's contract for the inputs.
+        let (size, cells) = unsafe { (vec3(size, None)?, get(cells.cast::<[u32; 3]>(), None)?) };
+        let mesh = box_mesh(&size, cells, tets_per_cell)?;
+        let (n, t) = (mesh.node_count(), mesh.tet_count());
+        if nodes_len / 3 < n || tets_len / 4 < t {
+            return Err(Status::BufferTooSmall.into());
+        }
+        disjoint(&[
+            span(nodes, nodes_len),
+            span(tets, tets_len),
+            span(out_nodes, 1),
+            span(out_tets, 1),
+        ])?;
+        // SAFETY: the caller's contract for the outputs; lengths in whole
+        // vectors never exceed the lengths given.
+        let (nodes, tets, on, ot) = unsafe {
+            (
+                output(nodes.cast::<[f32; 3]>(), nodes_len / 3, None)?,
+                output(tets.cast::<[u32; 4]>(), tets_len / 4, None)?,
+                out_opt(out_nodes, None)?,
+                out_opt(out_tets, None)?,
+            )
+        };
+        let (n, t) = mesh.generate(nodes, tets)?;
+        if let Some(o) = on {
+            *o = n;
+        }
+        if let Some(o) = ot {
+            *o = t;
+        }
+        Ok(())
+    })())
+}
+
+/// Builds the scene from `node_count` positions (3 floats each, m) and
+/// `tet_count` tetrahedra (4 node indices each), with `material`; `flags`
+/// is 0 or `COROFEM_BUILD_REORIENT`. Everything is validated before anything
+/// is written: on error the scene is unchanged and, for errors that name an
+/// element or a node, its index goes to `*out_where` (may be null).
+/// Settings are kept; fixed nodes, forces, the tool and velocities are reset.
+///
+/// # Safety
+///
+/// `scene` is a handle (or null); `positions` holds `3 node_count` floats,
+/// `tets` `4 tet_count` indices, `material` one struct; `out_where` is null
+/// or writable. No array may lie inside the scene buffer.
+#[no_mangle]
+pub unsafe extern "C" fn corofem_build(
+    scene: *mut SceneHandle,
+    positions: *const f32,
+    node_count: usize,
+    tets: *const u32,
+    tet_count: usize,
+    material: *const Material,
+    flags: u32,
+    out_where: *mut usize,
+) -> Status {
+    status((|| {
+        // SAFETY: the caller's contract for every pointer.
+        let s = unsafe { arena::scene(scene)? };
+        let out_span = span(out_where, 1);
+        disjoint(&[out_span, span(positions, node_count.saturating_mul(3))])?;
+        disjoint(&[out_span, span(tets, tet_count.saturating_mul(4))])?;
+        disjoint(&[out_span, span(material, 1)])?;
+        // SAFETY: as above.
+        let (pos, tets, mat, where_) = unsafe {
+            (
+                input(positions.cast::<[f32; 3]>(), node_count, Some(s))?,
+                input(tets.cast::<[u32; 4]>(), tet_count, Some(s))?,
+                get(material, Some(s))?,
+                out_opt(out_where, Some(s))?,
+            )
+        };
+        if flags & !COROFEM_BUILD_REORIENT != 0 {
+            return Err(Status::InvalidArgument.into());
+        }
+        let options = BuildOptions {
+            reorient: flags & COROFEM_BUILD_REORIENT != 0,
+        };
+        let material = corofem_core::Material {
+            young: mat.young,
+            poisson: mat.poisson,
+            density: mat.density,
+        };
+        match s.scene.build(pos, tets, &material, options) {
+            Ok(()) => {
+                s.built = true;
+                s.steps = 0;
+                s.last = corofem_core::StepStats::default();
+                Ok(())
+            }
+            Err(e) => {
+                let f = Failure::from(e);
+                if let (Some(w), Some(i)) = (where_, f.at) {
+                    *w = i;
+                }
+                Err(f)
+            }
+        }
+    })())
+}
+
+/// Writes the node and tetrahedron counts of the built scene.
+///
+/// # Safety
+///
+/// `scene` is a handle (or null); the outputs are null or writable.
+#[no_mangle]
+pub unsafe extern "C" fn corofem_counts(
+    scene: *mut SceneHandle,
+    out_nodes: *mut usize,
+    out_tets: *mut usize,
+) -> Status {
+    status((|| {
+        // SAFETY: the caller's contract.
+        let s = unsafe { built(scene)? };
+        disjoint(&[span(out_nodes, 1), span(out_tets, 1)])?;
+        // SAFETY: as above.
+        let (on, ot) = unsafe { (out_opt(out_nodes, Some(s))?, out_opt(out_tets, Some(s))?) };
+        if let Some(o) = on {
+            *o = s.scene.node_count();
+        }
+        if let Some(o) = ot {
+            *o = s.scene.element_count();
+        }
+        Ok(())
+    })())
+}
+
+/// Writes the default settings (no scene needed): QR, dt = 1 ms, 5 CG
+/// iterations, no early stop, no damping, no warm start, gravity −9.81 m/s² along z.
+///
+/// # Safety
+///
+/// `out_settings` is null or writable.
+#[no_mangle]
+pub unsafe extern "C" fn corofem_settings_default(out_settings: *mut Settings) -> Status {
+    status((|| {
+        // SAFETY: the caller's contract.
+        let o = unsafe { out(out_settings, None)? };
+        *o = Settings::from_core(&corofem_core::Settings::default());
+        Ok(())
+    })())
+}
+
+/// Writes the scene's settings.
+///
+/// # Safety
+///
+/// `scene` is a handle (or null); `out_settings` is null or writable.
+#[no_mangle]
+pub unsafe extern "C" fn corofem_get_settings(
+    scene: *mut SceneHandle,
+    out_settings: *mut Settings,
+) -> Status {
+    status((|| {
+        // SAFETY: the caller's contract.
+        let s = unsafe { arena::scene(scene)? };
+        // SAFETY: as above.
+        let o = unsafe { out(out_settings, Some(s))? };
+        *o = Settings::from_core(s.scene.settings());
+        Ok(())
+    })())
+}
+
+/// Validates and sets the step settings (before or after the build).
+///
+/// # Safety
+///
+/// `scene` is a handle (or null); `settings` is null or readable.
+#[no_mangle]
+pub unsafe extern "C" fn corofem_set_settings(
+    scene: *mut SceneHandle,
+    settings: *const Settings,
+) -> Status {
+    status((|| {
+        // SAFETY: the caller's contract.
+        let s = unsafe { arena::scene(scene)? };
+        // SAFETY: as above.
+        let c = unsafe { get(settings, Some(s))? };
+        s.scene.set_settings(c.to_core()?)?;
+        Ok(())
+    })())
+}
+
+/// Sets the element method (`COROFEM_METHOD_*`).
+///
+/// # Safety
+///
+/// `scene` is a handle (or null).
+#[no_mangle]
+pub unsafe extern "C" fn corofem_set_method(scene: *mut SceneHandle, method: u32) -> Status {
+    status((|| {
+        // SAFETY: the caller's contract.
+        let s = unsafe { arena::scene(scene)? };
+        s.scene.set_method(method_from_code(method)?)?;
+        Ok(())
+    })())
+}
+
+/// Sets Young's modulus (Pa, ≥ 0) of every element and the Poisson ratio
+/// (0 ≤ ν < 0.5) of the built scene. The density is fixed at the build
+/// (it sets the masses).
+///
+/// # Safety
+///
+/// `scene` is a handle (or null).
+#[no_mangle]
+pub unsafe extern "C" fn corofem_set_elasticity(
+    scene: *mut SceneHandle,
+    young: f32,
+    poisson: f32,
+) -> Status {
+    status((|| {
+        // SAFETY: the caller's contract.
+        let s = unsafe { built(scene)? };
+        // Both checked before either is set, so an error changes nothing.
+        corofem_core::Material {
+            young,
+            poisson,
+            density: 1.0,
+        }
+        .validate()?;
+        s.scene.set_poisson(poisson)?;
+        s.scene.set_young_all(young)?;
+        Ok(())
+    })())
+}
+
+/// Sets Young's modulus (Pa, ≥ 0) of one element.
+///
+/// # Safety
+///
+/// `scene` is a handle (or null).
+#[no_mangle]
+pub unsafe extern "C" fn corofem_set_young(
+    scene: *mut SceneHandle,
+    element: u32,
+    young: f32,
+) -> Status {
+    status((|| {
+        // SAFETY: the caller's contract.
+        let s = unsafe { built(scene)? };
+        s.scene.set_young(element as usize, young)?;
+        Ok(())
+    })())
+}
+
+/// Fixes `count` nodes (they stop and stay where they are).
+///
+/// # Safety
+///
+/// `scene` is a handle (or null); `nodes` holds `count` indices (may be
+/// null when `count` is 0).
+#[no_mangle]
+pub unsafe extern "C" fn corofem_fix_nodes(
+    scene: *mut SceneHandle,
+    nodes: *const u32,
+    count: usize,
+) -> Status {
+    status((|| {
+        // SAFETY: the caller's contract.
+        let s = unsafe { built(scene)? };
+        // SAFETY: as above.
+        let nodes = unsafe { input(nodes, count, Some(s))? };
+        s.scene.fix_nodes(nodes)?;
+        Ok(())
+    })())
+}
+
+/// Frees every fixed node.
+///
+/// # Safety
+///
+/// `scene` is a handle (or null).
+#[no_mangle]
+pub unsafe extern "C" fn corofem_unfix_all(scene: *mut SceneHandle) -> Status {
+    status((|| {
+        // SAFETY: the caller's contract.
+        unsafe { built(scene)? }.scene.unfix_all();
+        Ok(())
+    })())
+}
+
+/// Sets the constant external force on one node (3 floats, N).
+///
+/// # Safety
+///
+/// `scene` is a handle (or null); `force` points to 3 floats.
+#[no_mangle]
+pub unsafe extern "C" fn corofem_set_force(
+    scene: *mut SceneHandle,
+    node: u32,
+    force: *const f32,
+) -> Status {
+    status((|| {
+        // SAFETY: the caller's contract.
+        let s = unsafe { built(scene)? };
+        // SAFETY: as above.
+        let f = unsafe { vec3(force, Some(s))? };
+        s.scene.set_force(node as usize, f)?;
+        Ok(())
+    })())
+}
+
+/// Removes every external force.
+///
+/// # Safety
+///
+/// `scene` is a handle (or null).
+#[no_mangle]
+pub unsafe extern "C" fn corofem_clear_forces(scene: *mut SceneHandle) -> Status {
+    status((|| {
+        // SAFETY: the caller's contract.
+        unsafe { built(scene)? }.scene.clear_forces();
+        Ok(())
+    })())
+}
+
+/// Sets the ground plane `normal · x ≥ offset` (normal: 3 floats, any
+/// length > 0; offset in m), or removes it when `normal` is null.
+/// `COROFEM_STATUS_UNSUPPORTED` if the library was built without `ground`.
+///
+/// # Safety
+///
+/// `scene` is a handle (or null); `normal` is null or points to 3 floats.
+#[no_mangle]
+pub unsafe extern "C" fn corofem_set_ground(
+    scene: *mut SceneHandle,
+    normal: *const f32,
+    offset: f32,
+) -> Status {
+    status((|| {
+        // SAFETY: the caller's contract.
+        let s = unsafe { arena::scene(scene)? };
+        let plane = if normal.is_null() {
+            None
+        } else {
+            // SAFETY: as above.
+            Some(unsafe { vec3(normal, Some(s))? })
+        };
+        set_ground(s, plane, offset)
+    })())
+}
+
+#[cfg(feature = "ground")]
+fn set_ground(s: &mut SceneHandle, normal: Option<Vec3>, offset: f32) -> Result<(), Failure> {
+    let plane = normal.map(|normal| corofem_core::Plane { normal, offset });
+    s.scene.set_ground(plane)?;
+    Ok(())
+}
+
+#[cfg(not(feature = "ground"))]
+fn set_ground(_: &mut SceneHandle, _: Option<Vec3>, _: f32) -> Result<(), Failure> {
+    Err(Status::Unsupported.into())
+}
+
+/// Grabs `count` nodes with the haptic tool: a spring of total stiffness
+/// `stiffness` (N/m, ≥ 0) pulls their centroid towards the tool target,
+/// which starts at that centroid. Replaces any previous grab.
+///
+/// # Safety
+///
+/// `scene` is a handle (or null); `nodes` holds `count` indices.
+#[no_mangle]
+pub unsafe extern "C" fn corofem_grab(
+    scene: *mut SceneHandle,
+    nodes: *const u32,
+    count: usize,
+    stiffness: f32,
+) -> Status {
+    status((|| {
+        // SAFETY: the caller's contract.
+        let s = unsafe { built(scene)? };
+        // SAFETY: as above.
+        let nodes = unsafe { input(nodes, count, Some(s))? };
+        s.scene.grab(nodes, stiffness)?;
+        Ok(())
+    })())
+}
+
+/// Lets go of the grabbed nodes.
+///
+/// # Safety
+///
+/// `scene` is a handle (or null).
+#[no_mangle]
+pub unsafe extern "C" fn corofem_release(scene: *mut SceneHandle) -> Status {
+    status((|| {
+        // SAFETY: the caller's contract.
+        unsafe { built(scene)? }.scene.release();
+        Ok(())
+    })())
+}
+
+/// Writes the tool target (3 floats, m).
+///
+/// # Safety
+///
+/// `scene` is a handle (or null); `out_target` is writable for 3 floats.
+#[no_mangle]
+pub unsafe extern "C" fn corofem_tool_target(
+    scene: *mut SceneHandle,
+    out_target: *mut f32,
+) -> Status {
+    status((|| {
+        // SAFETY: the caller's contract.
+        let s = unsafe { built(scene)? };
+        // SAFETY: as above.
+        let o = unsafe { out(out_target.cast::<[f32; 3]>(), Some(s))? };
+        *o = s.scene.tool_target();
+        Ok(())
+    })())
+}
+
+/// Advances the scene by one step of `dt`; the statistics go to
+/// `*out_stats` (may be null). Fixed cost per step with `cg_tolerance` 0.
+/// On `COROFEM_STATUS_DIVERGED` the step was not applied.
+///
+/// # Safety
+///
+/// `scene` is a handle (or null); `out_stats` is null or writable.
+#[no_mangle]
+pub unsafe extern "C" fn corofem_step(scene: *mut SceneHandle, out_stats: *mut Stats) -> Status {
+    status((|| {
+        // SAFETY: the caller's contract.
+        let s = unsafe { built(scene)? };
+        // SAFETY: as above.
+        let o = unsafe { out_opt(out_stats, Some(s))? };
+        let st = s.scene.step()?;
+        record(s, st, o);
+        Ok(())
+    })())
+}
+
+/// One haptic-loop step: moves the tool target to `target` (3 floats, m),
+/// steps, and writes the force the body exerts on the tool (3 floats, N) to
+/// `out_force` (may be null) and the statistics to `*out_stats` (may be null).
+///
+/// # Safety
+///
+/// `scene` is a handle (or null); `target` points to 3 floats; the outputs
+/// are null or writable (3 floats for `out_force`).
+#[no_mangle]
+pub unsafe extern "C" fn corofem_step_haptic(
+    scene: *mut SceneHandle,
+    target: *const f32,
+    out_force: *mut f32,
+    out_stats: *mut Stats,
+) -> Status {
+    status((|| {
+        // SAFETY: the caller's contract.
+        let s = unsafe { built(scene)? };
+        disjoint(&[span(out_force, 3), span(out_stats, 1)])?;
+        // SAFETY: as above.
+        let (t, of, os) = unsafe {
+            (
+                vec3(target, Some(s))?,
+                out_opt(out_force.cast::<[f32; 3]>(), Some(s))?,
+                out_opt(out_stats, Some(s))?,
+            )
+        };
+        let st = s.scene.step_haptic(t)?;
+        if let Some(f) = of {
+            *f = st.tool_force;
+        }
+        record(s, st, os);
+        Ok(())
+    })())
+}
+
+fn record(s: &mut SceneHandle, st: corofem_core::StepStats, out: Option<&mut Stats>) {
+    s.steps = s.steps.wrapping_add(1);
+    s.last = st;
+    if let Some(o) = out {
+        *o = stats(s);
+    }
+}
+
+fn stats(s: &SceneHandle) -> Stats {
+    Stats {
+        steps: s.steps,
+        time: s.scene.time(),
+        cg_iterations: s.last.cg_iterations,
+        cg_residual: s.last.cg_residual,
+        inverted: s.last.inverted,
+        contacts: s.last.contacts,
+        tool_force: s.last.tool_force,
+    }
+}
+
+/// Writes the statistics of the last step (zeros before the first).
+///
+/// # Safety
+///
+/// `scene` is a handle (or null); `out_stats` is null or writable.
+#[no_mangle]
+pub unsafe extern "C" fn corofem_last_stats(
+    scene: *mut SceneHandle,
+    out_stats: *mut Stats,
+) -> Status {
+    status((|| {
+        // SAFETY: the caller's contract.
+        let s = unsafe { built(scene)? };
+        // SAFETY: as above.
+        let o = unsafe { out(out_stats, Some(s))? };
+        *o = stats(s);
+        Ok(())
+    })())
+}
+
+/// Writes the current positions (m) of all nodes, 3 floats each, into `out`
+/// of `out_len` floats (at least 3 × node count).
+///
+/// # Safety
+///
+/// `scene` is a handle (or null); `out` is writable for `out_len` floats.
+#[no_mangle]
+pub unsafe extern "C" fn corofem_positions(
+    scene: *mut SceneHandle,
+    out: *mut f32,
+    out_len: usize,
+) -> Status {
+    status((|| {
+        // SAFETY: the caller's contract.
+        let s = unsafe { built(scene)? };
+        if out_len / 3 < s.scene.node_count() {
+            return Err(Status::BufferTooSmall.into());
+        }
+        // SAFETY: as above.
+        let o = unsafe { output(out.cast::<[f32; 3]>(), out_len / 3, Some(s))? };
+        for (slot, p) in o.iter_mut().zip(s.scene.positions()) {
+            *slot = p;
+        }
+        Ok(())
+    })())
+}
+
+/// Writes the current velocities (m/s) of all nodes, 3 floats each, into
+/// `out` of `out_len` floats (at least 3 × node count).
+///
+/// # Safety
+///
+/// `scene` is a handle (or null); `out` is writable for `out_len` floats.
+#[no_mangle]
+pub unsafe extern "C" fn corofem_velocities(
+    scene: *mut SceneHandle,
+    out: *mut f32,
+    out_len: usize,
+) -> Status {
+    status((|| {
+        // SAFETY: the caller's contract.
+        let s = unsafe { built(scene)? };
+        if out_len / 3 < s.scene.node_count() {
+            return Err(Status::BufferTooSmall.into());
+        }
+        // SAFETY: as above.
+        let o = unsafe { output(out.cast::<[f32; 3]>(), out_len / 3, Some(s))? };
+        for (slot, v) in o.iter_mut().zip(s.scene.velocities()) {
+            *slot = v;
+        }
+        Ok(())
+    })())
+}
+
+/// Writes the current position (3 floats, m) of one node.
+///
+/// # Safety
+///
+/// `scene` is a handle (or null); `out` is writable for 3 floats.
+#[no_mangle]
+pub unsafe extern "C" fn corofem_position(
+    scene: *mut SceneHandle,
+    node: u32,
+    out_position: *mut f32,
+) -> Status {
+    status((|| {
+        // SAFETY: the caller's contract.
+        let s = unsafe { built(scene)? };
+        // SAFETY: as above.
+        let o = unsafe { out(out_position.cast::<[f32; 3]>(), Some(s))? };
+        *o = s
+            .scene
+            .position(node as usize)
+            .ok_or(Status::IndexOutOfRange)?;
+        Ok(())
+    })())
+}
+
+/// Writes a 64-bit FNV-1a hash of the bits of every displacement and
+/// velocity: equal hashes mean bit-identical states (the same value the
+/// Rust API's `Scene::state_hash` gives).
+///
+/// # Safety
+///
+/// `scene` is a handle (or null); `out_hash` is null or writable.
+#[no_mangle]
+pub unsafe extern "C" fn corofem_state_hash(scene: *mut SceneHandle, out_hash: *mut u64) -> Status {
+    status((|| {
+        // SAFETY: the caller's contract.
+        let s = unsafe { built(scene)? };
+        // SAFETY: as above.
+        let o = unsafe { out(out_hash, Some(s))? };
+        *o = s.scene.state_hash();
+        Ok(())
+    })())
+}
+
+/// Back to the rest shape at rest (displacements, velocities, time and step
+/// count zeroed; constraints, loads and the tool kept).
+///
+/// # Safety
+///
+/// `scene` is a handle (or null).
+#[no_mangle]
+pub unsafe extern "C" fn corofem_reset_state(scene: *mut SceneHandle) -> Status {
+    status((|| {
+        // SAFETY: the caller's contract.
+        let s = unsafe { built(scene)? };
+        s.scene.reset_state();
+        s.steps = 0;
+        s.last = corofem_core::StepStats::default();
+        Ok(())
+    })())
+}

@@ -1,0 +1,216 @@
+//! A scene inside memory the caller provides.
+//!
+//! ```text
+//!  caller's buffer (any address, `corofem_scene_bytes` long)
+//!  ┌─────┬──────────────┬──────────────┬──────────────────┬──────────────────┐
+//!  │ pad │ SceneHandle  │ Node × N     │ NodeWork × N     │ Element × T      │
+//!  │ 0–7 │ magic, range,│ state, mass, │ CG scratch       │ rest frame, λ μ, │
+//!  │     │ Scene<Slice… │ flags, grab  │                  │ world gradients  │
+//!  └─────┴──────────────┴──────────────┴──────────────────┴──────────────────┘
+//!        ▲ the handle: aligned to 8; the arrays follow at their own alignment
+//! ```
+//!
+//! The handle holds a `Scene<SliceStorage<'static>>` whose slices point into
+//! the same buffer, so the buffer must stay where it is, untouched by the
+//! caller, until `corofem_scene_deinit` or until it is no longer used. The
+//! handle records its own address: a buffer copied or moved elsewhere is
+//! refused as an invalid handle rather than followed to stale memory.
+//!
+//! All the raw-pointer work on the scene buffer is in this file.
+
+use core::alloc::Layout;
+use core::mem::{align_of, size_of};
+use core::ptr;
+
+use corofem_core::{Element, Node, NodeWork, Scene, SliceStorage, StepStats};
+
+use crate::status::Status;
+
+/// "COFE" — a live scene.
+const MAGIC: u32 = 0xC0FE_0001;
+/// Largest node count the core addresses (`u16` indices).
+pub const COROFEM_MAX_NODES: usize = 1 << 16;
+
+/// The scene handle: the front of the caller's buffer. Opaque to C.
+pub struct SceneHandle {
+    /// [`MAGIC`] while the scene is live, 0 after de-initialisation.
+    magic: u32,
+    /// The address of this handle when it was made.
+    this: usize,
+    /// The caller's whole buffer `[start, end)`: arrays passed in or out
+    /// must not overlap it.
+    buffer: (usize, usize),
+    /// Whether a build has succeeded.
+    pub(crate) built: bool,
+    /// Steps taken since the build.
+    pub(crate) steps: u64,
+    /// Statistics of the last step.
+    pub(crate) last: StepStats,
+    /// The scene; its storage is the rest of the buffer.
+    pub(crate) scene: Scene<SliceStorage<'static>>,
+}
+
+/// Where each part goes, relative to the aligned start.
+struct Plan {
+    nodes: usize,
+    work: usize,
+    elems: usize,
+    size: usize,
+    align: usize,
+}
+
+fn plan(max_nodes: usize, max_tets: usize) -> Option<Plan> {
+    let head = Layout::new::<SceneHandle>();
+    let (l, nodes) = head.extend(Layout::array::<Node>(max_nodes).ok()?).ok()?;
+    let (l, work) = l.extend(Layout::array::<NodeWork>(max_nodes).ok()?).ok()?;
+    let (l, elems) = l.extend(Layout::array::<Element>(max_tets).ok()?).ok()?;
+    Some(Plan {
+        nodes,
+        work,
+        elems,
+        size: l.size(),
+        align: l.align(),
+    })
+}
+
+/// Bytes a buffer at any address needs for a scene of `max_nodes` nodes and
+/// `max_tets` tetrahedra: the parts, plus `align − 1` bytes so that an
+/// unaligned buffer still fits.
+pub fn scene_bytes(max_nodes: usize, max_tets: usize) -> Result<usize, Status> {
+    if max_nodes == 0 || max_tets == 0 {
+        return Err(Status::InvalidArgument);
+    }
+    if max_nodes > COROFEM_MAX_NODES {
+        return Err(Status::Capacity);
+    }
+    let p = plan(max_nodes, max_tets).ok_or(Status::Capacity)?;
+    p.size.checked_add(p.align - 1).ok_or(Status::Capacity)
+}
+
+/// Initialises a scene in `buffer` and returns its handle.
+///
+/// # Safety
+///
+/// `buffer` is null or valid for writes of `bytes` bytes, and nothing else
+/// uses that memory while the scene lives.
+pub unsafe fn init(
+    buffer: *mut u8,
+    bytes: usize,
+    max_nodes: usize,
+    max_tets: usize,
+) -> Result<*mut SceneHandle, Status> {
+    if buffer.is_null() {
+        return Err(Status::NullPointer);
+    }
+    let need = scene_bytes(max_nodes, max_tets)?;
+    let p = plan(max_nodes, max_tets).ok_or(Status::Capacity)?;
+    let start = buffer as usize;
+    let end = start.checked_add(bytes).ok_or(Status::InvalidArgument)?;
+    let pad = start.wrapping_neg() & (p.align - 1);
+    // `need` counts the worst-case padding, so the same size works at every
+    // address (an aligned buffer that is a few bytes short is still refused,
+    // so that a size that works once works everywhere).
+    if bytes < need {
+        return Err(Status::BufferTooSmall);
+    }
+    // pad ≤ align − 1, so pad + size ≤ need ≤ bytes.
+    // SAFETY: `pad + p.size <= need <= bytes`, so every pointer below stays inside
+    // the caller's buffer; each is aligned for its type because `plan` laid
+    // the parts out from an address aligned to `p.align` (the largest
+    // alignment of all parts).
+    unsafe {
+        let base = buffer.add(pad);
+        let nodes = base.add(p.nodes).cast::<Node>();
+        let work = base.add(p.work).cast::<NodeWork>();
+        let elems = base.add(p.elems).cast::<Element>();
+        for i in 0..max_nodes {
+            nodes.add(i).write(Node::EMPTY);
+            work.add(i).write(NodeWork::EMPTY);
+        }
+        for i in 0..max_tets {
+            elems.add(i).write(Element::EMPTY);
+        }
+        // The slices are initialised and disjoint from each other and from
+        // the handle. `'static` stands for "until the caller frees the
+        // buffer", the contract of every C function taking the handle.
+        let storage = SliceStorage::new(
+            core::slice::from_raw_parts_mut(nodes, max_nodes),
+            core::slice::from_raw_parts_mut(work, max_nodes),
+            core::slice::from_raw_parts_mut(elems, max_tets),
+        );
+        let handle = base.cast::<SceneHandle>();
+        handle.write(SceneHandle {
+            magic: MAGIC,
+            this: handle as usize,
+            buffer: (start, end),
+            built: false,
+            steps: 0,
+            last: StepStats::default(),
+            scene: Scene::with_storage(storage),
+        });
+        Ok(handle)
+    }
+}
+
+/// The live scene behind a handle.
+///
+/// # Safety
+///
+/// `h` is null or points to at least `size_of::<SceneHandle>()` readable
+/// bytes (a handle from [`init`] whose buffer is still allocated, or any
+/// other readable memory, which is then refused), and no other call uses
+/// the same scene at the same time.
+pub unsafe fn scene<'a>(h: *mut SceneHandle) -> Result<&'a mut SceneHandle, Status> {
+    if h.is_null() {
+        return Err(Status::NullPointer);
+    }
+    if h as usize % align_of::<SceneHandle>() != 0 {
+        return Err(Status::InvalidHandle);
+    }
+    // SAFETY: aligned, and readable by the caller's contract. Only the two
+    // plain integer fields are read before the magic number vouches for the rest.
+    let (magic, this) = unsafe {
+        (
+            ptr::addr_of!((*h).magic).read(),
+            ptr::addr_of!((*h).this).read(),
+        )
+    };
+    if magic != MAGIC || this != h as usize {
+        return Err(Status::InvalidHandle);
+    }
+    // SAFETY: a live handle written by `init` at this very address; the
+    // caller guarantees exclusive use for the duration of the call.
+    Ok(unsafe { &mut *h })
+}
+
+impl SceneHandle {
+    /// Marks the scene dead: every later call with this handle is refused.
+    pub fn kill(&mut self) {
+        self.magic = 0;
+        self.this = 0;
+    }
+
+    /// Whether `len` elements of `T` at `addr` overlap the scene buffer.
+    pub fn overlaps<T>(&self, addr: usize, len: usize) -> bool {
+        let bytes = len.saturating_mul(size_of::<T>());
+        let (start, end) = self.buffer;
+        bytes > 0 && addr < end && addr.saturating_add(bytes) > start
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sizes_add_up() {
+        let b = scene_bytes(4, 1).unwrap();
+        let parts = size_of::<SceneHandle>()
+            + 4 * (size_of::<Node>() + size_of::<NodeWork>())
+            + size_of::<Element>();
+        assert!(b >= parts && b < parts + 16, "{b} vs {parts}");
+        assert_eq!(scene_bytes(COROFEM_MAX_NODES + 1, 1), Err(Status::Capacity));
+        assert_eq!(scene_bytes(0, 1), Err(Status::InvalidArgument));
+        assert_eq!(scene_bytes(1, usize::MAX / 2), Err(Status::Capacity));
+    }
+}

@@ -1,0 +1,136 @@
+//! The plain C structs and the method codes.
+
+use corofem_core::Method;
+
+use crate::ptr::Plain;
+use crate::status::Status;
+
+/// Element method codes for `corofem_set_method` and `corofem_settings.method`.
+#[repr(u32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MethodCode {
+    /// The paper's QR method, `B` from the current shape (the default).
+    Qr = 0,
+    /// Polar decomposition (about 30% more work).
+    Polar = 1,
+    /// Small-displacement linear elasticity (no rotation).
+    Linear = 2,
+    /// QR with `B` frozen at rest, as SOFA's default (ghost torques).
+    QrRestB = 3,
+}
+
+/// Method names in code order; the core knows which are compiled in.
+const NAMES: [&str; 4] = ["qr", "polar", "linear", "qr-rest-b"];
+
+/// The core method for a C code.
+pub fn method_from_code(code: u32) -> Result<Method, Status> {
+    let name = NAMES.get(code as usize).ok_or(Status::InvalidArgument)?;
+    Method::from_name(name).ok_or(Status::Unsupported)
+}
+
+/// The C code of a core method.
+#[must_use]
+pub fn method_code(m: Method) -> u32 {
+    NAMES
+        .iter()
+        .position(|n| *n == m.name())
+        .map_or(u32::MAX, |i| i as u32)
+}
+
+/// Build flag: swap two nodes of negatively oriented tetrahedra instead of
+/// refusing them.
+pub const COROFEM_BUILD_REORIENT: u32 = 1;
+
+/// An isotropic material.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Material {
+    /// Young's modulus (Pa, ≥ 0).
+    pub young: f32,
+    /// Poisson ratio (0 ≤ ν < 0.5).
+    pub poisson: f32,
+    /// Density (kg/m³, > 0).
+    pub density: f32,
+}
+
+/// How the scene is stepped (see `corofem_settings_default` for the defaults).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Settings {
+    /// Element method code (`COROFEM_METHOD_*`). Default QR.
+    pub method: u32,
+    /// Time step (s, > 0). Default 0.001.
+    pub dt: f32,
+    /// Most CG iterations per step (≥ 1). Default 5.
+    pub cg_iterations: u32,
+    /// Relative residual at which CG stops early (≥ 0; 0 = always run
+    /// `cg_iterations`, a fixed cost per step). Default 0.
+    pub cg_tolerance: f32,
+    /// Mass-proportional Rayleigh damping (1/s, ≥ 0). Default 0.
+    pub rayleigh_mass: f32,
+    /// Stiffness-proportional Rayleigh damping (s, ≥ 0). Default 0.
+    pub rayleigh_stiffness: f32,
+    /// Nonzero: start CG from the last step's velocity change. Default 0.
+    pub warm_start: u32,
+    /// Gravity (m/s²). Default (0, 0, −9.81).
+    pub gravity: [f32; 3],
+}
+
+impl Settings {
+    /// From the core's settings.
+    #[must_use]
+    pub fn from_core(s: &corofem_core::Settings) -> Self {
+        Self {
+            method: method_code(s.method),
+            dt: s.dt,
+            cg_iterations: s.cg_iterations,
+            cg_tolerance: s.cg_tolerance,
+            rayleigh_mass: s.rayleigh_mass,
+            rayleigh_stiffness: s.rayleigh_stiffness,
+            warm_start: u32::from(s.warm_start),
+            gravity: s.gravity,
+        }
+    }
+
+    /// To the core's settings (validated by the core when set).
+    pub fn to_core(&self) -> Result<corofem_core::Settings, Status> {
+        Ok(corofem_core::Settings {
+            method: method_from_code(self.method)?,
+            dt: self.dt,
+            cg_iterations: self.cg_iterations,
+            cg_tolerance: self.cg_tolerance,
+            rayleigh_mass: self.rayleigh_mass,
+            rayleigh_stiffness: self.rayleigh_stiffness,
+            warm_start: self.warm_start != 0,
+            gravity: self.gravity,
+        })
+    }
+}
+
+/// What the last step did.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Stats {
+    /// Steps since the build.
+    pub steps: u64,
+    /// Simulated time since the build (s).
+    pub time: f64,
+    /// CG iterations run in the last step.
+    pub cg_iterations: u32,
+    /// Final relative CG residual of the last step.
+    pub cg_residual: f32,
+    /// Inverted elements at the start of the last step.
+    pub inverted: u32,
+    /// Nodes held by the ground during the last step.
+    pub contacts: u32,
+    /// Force the body exerts on the tool (N): what a haptic device renders.
+    pub tool_force: [f32; 3],
+}
+
+// SAFETY: `repr(C)` structs of integers and floats only: every bit pattern
+// (padding aside, which is never read as a value) is valid.
+unsafe impl Plain for Material {}
+// SAFETY: as above.
+unsafe impl Plain for Settings {}
+// SAFETY: as above.
+unsafe impl Plain for Stats {}
