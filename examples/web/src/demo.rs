@@ -1,0 +1,817 @@
+//! The demo's simulation side: built-in bodies, placing and holding a body,
+//! its surface for drawing, picking and grabbing with the haptic tool, frames
+//! of several steps, and the scripted scene whose state hash the wasm module
+//! and the host must agree on ([`hash_script`]).
+//!
+//! Only `corofem` and `std` are used here, so the very same file compiles into
+//! the wasm crate and, through `#[path]`, into the host test
+//! `host-tests/tests/web_hash.rs`: the scene is defined once.
+
+use std::collections::HashMap;
+
+use corofem::{
+    BoxMesh, BuildOptions, Element, Material, Method, Node, NodeWork, Plane, Scene, Settings,
+    Storage,
+};
+
+/// Scene storage in vectors sized at run time (the body can come from a file).
+#[derive(Clone, Debug)]
+pub struct VecStorage {
+    nodes: Vec<Node>,
+    work: Vec<NodeWork>,
+    elems: Vec<Element>,
+}
+
+impl VecStorage {
+    /// Room for exactly `nodes` nodes and `elems` tetrahedra.
+    pub fn new(nodes: usize, elems: usize) -> Self {
+        Self {
+            nodes: vec![Node::EMPTY; nodes],
+            work: vec![NodeWork::EMPTY; nodes],
+            elems: vec![Element::EMPTY; elems],
+        }
+    }
+}
+
+impl Storage for VecStorage {
+    fn parts(&self) -> (&[Node], &[Element]) {
+        (&self.nodes, &self.elems)
+    }
+    fn parts_mut(&mut self) -> (&mut [Node], &mut [NodeWork], &mut [Element]) {
+        (&mut self.nodes, &mut self.work, &mut self.elems)
+    }
+}
+
+/// A tetrahedral mesh in the core's input form.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Mesh {
+    /// Node positions (m).
+    pub nodes: Vec<[f32; 3]>,
+    /// Tetrahedra (node indices).
+    pub tets: Vec<[u32; 4]>,
+}
+
+/// The bodies generated in code.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Body {
+    /// A 0.3 m cube, 7×7×7 cells of 6 tetrahedra (2058 tets, 512 nodes).
+    Cube,
+    /// A 1 m × 0.2 m × 0.2 m beam, 20×4×4 cells of 6 (1920 tets, 525 nodes).
+    Beam,
+    /// A squashed ball of radius ~0.2 m: an 8×8×8 grid of 5-tet cells mapped
+    /// onto a sphere (2560 tets, 729 nodes).
+    Blob,
+}
+
+impl Body {
+    /// Body by page index: 0 cube, 1 beam, 2 blob.
+    pub fn from_index(i: u32) -> Option<Body> {
+        [Body::Cube, Body::Beam, Body::Blob]
+            .get(i as usize)
+            .copied()
+    }
+
+    /// How it is held by default: the beam is clamped, the others lie on the ground.
+    pub fn default_support(self) -> Support {
+        match self {
+            Body::Beam => Support::Clamp,
+            Body::Cube | Body::Blob => Support::Ground,
+        }
+    }
+
+    /// The generated mesh, at its own origin.
+    pub fn mesh(self) -> Mesh {
+        match self {
+            Body::Cube => box_mesh([0.3; 3], [7, 7, 7], 6),
+            Body::Beam => box_mesh([1.0, 0.2, 0.2], [20, 4, 4], 6),
+            Body::Blob => {
+                let mut m = box_mesh([2.0; 3], [8, 8, 8], 5);
+                for p in &mut m.nodes {
+                    let [x, y, z] = [p[0] - 1.0, p[1] - 1.0, p[2] - 1.0];
+                    // The cube [-1, 1]³ onto the unit ball (a smooth bijection:
+                    // x' = x √(1 − y²/2 − z²/2 + y²z²/3) and cyclically),
+                    // then squashed a little to look less like a ball.
+                    let (x2, y2, z2) = (x * x, y * y, z * z);
+                    let sx = x * (1.0 - y2 / 2.0 - z2 / 2.0 + y2 * z2 / 3.0).max(0.0).sqrt();
+                    let sy = y * (1.0 - z2 / 2.0 - x2 / 2.0 + z2 * x2 / 3.0).max(0.0).sqrt();
+                    let sz = z * (1.0 - x2 / 2.0 - y2 / 2.0 + x2 * y2 / 3.0).max(0.0).sqrt();
+                    *p = [0.22 * sx, 0.19 * sy, 0.16 * sz];
+                }
+                m
+            }
+        }
+    }
+}
+
+fn box_mesh(size: [f32; 3], cells: [u32; 3], tets_per_cell: u8) -> Mesh {
+    let b = BoxMesh {
+        size,
+        cells,
+        tets_per_cell,
+    };
+    let mut nodes = vec![[0.0; 3]; b.node_count()];
+    let mut tets = vec![[0; 4]; b.tet_count()];
+    // The parameters above are valid; an error would leave an empty mesh,
+    // which `App::new` reports.
+    if b.generate(&mut nodes, &mut tets).is_err() {
+        return Mesh::default();
+    }
+    Mesh { nodes, tets }
+}
+
+/// How the body is held.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Support {
+    /// Free body resting on the ground plane `z = 0`.
+    Ground,
+    /// The nodes within 2% of the length from the `−x` end are fixed; the body
+    /// hangs 0.5 m above the ground.
+    Clamp,
+    /// Nothing holds it and there is no ground: turn gravity off and watch
+    /// momentum (and, with `QrRestB`, ghost torques).
+    Free,
+}
+
+impl Support {
+    /// Support by page index: 0 ground, 1 clamp, 2 free.
+    pub fn from_index(i: u32) -> Option<Support> {
+        [Support::Ground, Support::Clamp, Support::Free]
+            .get(i as usize)
+            .copied()
+    }
+}
+
+/// What the page's controls set.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Params {
+    /// Young's modulus (Pa). Default 2e6: the beam sags about 0.2 m.
+    pub young: f32,
+    /// Poisson ratio. Default 0.3.
+    pub poisson: f32,
+    /// Element method. Default `Qr`.
+    pub method: Method,
+    /// Time step (s). Default 0.002.
+    pub dt: f32,
+    /// CG iterations per step. Default 10 (5, the paper's, leaves the tool
+    /// force ringing on the stiff beam).
+    pub cg_iterations: u32,
+    /// Gravity (−9.81 m/s² along z) on or off. Default on.
+    pub gravity: bool,
+    /// Stiffness-proportional Rayleigh damping α_K (s). Default 0.01 (about
+    /// 5% of critical on the beam's first mode, 1.5 Hz).
+    pub damping: f32,
+}
+
+impl Params {
+    /// The page's defaults.
+    pub const DEFAULT: Params = Params {
+        young: 2.0e6,
+        poisson: 0.3,
+        method: Method::Qr,
+        dt: 0.002,
+        cg_iterations: 10,
+        gravity: true,
+        damping: 0.01,
+    };
+
+    fn settings(&self) -> Settings {
+        Settings {
+            method: self.method,
+            dt: self.dt,
+            cg_iterations: self.cg_iterations,
+            rayleigh_stiffness: self.damping,
+            gravity: if self.gravity {
+                [0.0, 0.0, -9.81]
+            } else {
+                [0.0; 3]
+            },
+            ..Settings::default()
+        }
+    }
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
+/// Density of every body (kg/m³).
+pub const DENSITY: f32 = 1000.0;
+
+/// What a frame of several steps did.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FrameStats {
+    /// Steps taken.
+    pub steps: u32,
+    /// Inverted elements at the start of the last step.
+    pub inverted: u32,
+    /// Nodes on the ground in the last step.
+    pub contacts: u32,
+    /// Force of the body on the tool after the last step (N).
+    pub tool_force: [f32; 3],
+    /// Relative CG residual of the last step.
+    pub cg_residual: f32,
+    /// A step produced non-finite values and was refused (the state is the
+    /// last good one).
+    pub diverged: bool,
+}
+
+/// A ray hit on the surface.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    /// Where (m).
+    pub point: [f32; 3],
+    /// Distance along the ray, in units of the ray direction's length.
+    pub t: f32,
+}
+
+/// One body on screen: the scene, its surface and the tool's state.
+#[derive(Debug)]
+pub struct App {
+    scene: Scene<VecStorage>,
+    /// Rest positions after placement (m).
+    rest: Vec<[f32; 3]>,
+    surface: Vec<[u32; 3]>,
+    fixed: Vec<u32>,
+    support: Support,
+    params: Params,
+    /// Mean edge length (m).
+    edge: f32,
+    /// Current positions, x y z per node, for the page.
+    positions: Vec<f32>,
+    grabbed: Vec<u32>,
+    /// Grabbed nodes' centroid minus the picked point (m).
+    grab_offset: [f32; 3],
+    stats: FrameStats,
+}
+
+impl App {
+    /// Places `mesh` for `support` (centred on the z axis; on the ground, or
+    /// 0.5 m above it when clamped or free) and builds the scene. Negatively oriented
+    /// tetrahedra are re-oriented when `reorient` is set.
+    pub fn new(
+        mesh: &Mesh,
+        support: Support,
+        params: Params,
+        reorient: bool,
+    ) -> Result<App, String> {
+        if mesh.tets.is_empty() {
+            return Err("the mesh has no tetrahedron".to_owned());
+        }
+        let (lo, hi) = bounds(&mesh.nodes);
+        let lift = match support {
+            Support::Ground => 0.0,
+            Support::Clamp | Support::Free => 0.5,
+        };
+        let shift = [-0.5 * (lo[0] + hi[0]), -0.5 * (lo[1] + hi[1]), lift - lo[2]];
+        let rest: Vec<[f32; 3]> = mesh
+            .nodes
+            .iter()
+            .map(|p| [p[0] + shift[0], p[1] + shift[1], p[2] + shift[2]])
+            .collect();
+        let mut scene = Scene::with_storage(VecStorage::new(rest.len(), mesh.tets.len()));
+        scene
+            .set_settings(params.settings())
+            .map_err(|e| e.to_string())?;
+        let material = Material {
+            young: params.young,
+            poisson: params.poisson,
+            density: DENSITY,
+        };
+        scene
+            .build(&rest, &mesh.tets, &material, BuildOptions { reorient })
+            .map_err(|e| e.to_string())?;
+        let fixed: Vec<u32> = match support {
+            Support::Clamp => {
+                let x_lo = lo[0] + shift[0];
+                let reach = 0.02 * (hi[0] - lo[0]);
+                (0..rest.len() as u32)
+                    .filter(|&i| rest[i as usize][0] <= x_lo + reach)
+                    .collect()
+            }
+            Support::Ground | Support::Free => Vec::new(),
+        };
+        scene.fix_nodes(&fixed).map_err(|e| e.to_string())?;
+        let ground = match support {
+            Support::Ground | Support::Clamp => Some(Plane::Z_UP),
+            Support::Free => None,
+        };
+        scene.set_ground(ground).map_err(|e| e.to_string())?;
+        let elems: Vec<[u32; 4]> = (0..scene.element_count())
+            .filter_map(|e| scene.element_nodes(e))
+            .map(|t| t.map(u32::from))
+            .collect();
+        let surface = surface(&elems);
+        let edge = mean_edge(&rest, &elems);
+        let mut app = App {
+            positions: vec![0.0; 3 * rest.len()],
+            scene,
+            rest,
+            surface,
+            fixed,
+            support,
+            params,
+            edge,
+            grabbed: Vec::new(),
+            grab_offset: [0.0; 3],
+            stats: FrameStats::default(),
+        };
+        app.update_positions();
+        Ok(app)
+    }
+
+    /// A built-in body with its default support.
+    pub fn body(body: Body, params: Params) -> Result<App, String> {
+        App::new(&body.mesh(), body.default_support(), params, false)
+    }
+
+    /// Applies new control values. Young's modulus and the Poisson ratio
+    /// update the elements in place; the state is kept.
+    pub fn set_params(&mut self, p: Params) -> Result<(), String> {
+        self.scene
+            .set_settings(p.settings())
+            .map_err(|e| e.to_string())?;
+        if p.young != self.params.young {
+            self.scene
+                .set_young_all(p.young)
+                .map_err(|e| e.to_string())?;
+        }
+        if p.poisson != self.params.poisson {
+            self.scene
+                .set_poisson(p.poisson)
+                .map_err(|e| e.to_string())?;
+        }
+        self.params = p;
+        Ok(())
+    }
+
+    /// The control values in force.
+    pub fn params(&self) -> Params {
+        self.params
+    }
+
+    /// How the body is held.
+    pub fn support(&self) -> Support {
+        self.support
+    }
+
+    /// The scene.
+    pub fn scene(&self) -> &Scene<VecStorage> {
+        &self.scene
+    }
+
+    /// Outward-oriented boundary triangles.
+    pub fn surface(&self) -> &[[u32; 3]] {
+        &self.surface
+    }
+
+    /// Indices of the fixed nodes.
+    pub fn fixed(&self) -> &[u32] {
+        &self.fixed
+    }
+
+    /// Mean edge length (m).
+    pub fn mean_edge(&self) -> f32 {
+        self.edge
+    }
+
+    /// Bounding box of the rest shape (m).
+    pub fn rest_bounds(&self) -> ([f32; 3], [f32; 3]) {
+        bounds(&self.rest)
+    }
+
+    /// Current positions, x y z per node (m), refreshed by `step_frame`.
+    pub fn positions(&self) -> &[f32] {
+        &self.positions
+    }
+
+    fn update_positions(&mut self) {
+        for (out, p) in self
+            .positions
+            .chunks_exact_mut(3)
+            .zip(self.scene.positions())
+        {
+            out.copy_from_slice(&p);
+        }
+    }
+
+    /// Statistics of the last frame.
+    pub fn stats(&self) -> FrameStats {
+        self.stats
+    }
+
+    /// Runs up to `substeps` steps; stops at the first refused step.
+    pub fn step_frame(&mut self, substeps: u32) -> FrameStats {
+        let mut f = FrameStats::default();
+        for _ in 0..substeps {
+            match self.scene.step() {
+                Ok(s) => {
+                    f.steps += 1;
+                    f.inverted = s.inverted;
+                    f.contacts = s.contacts;
+                    f.tool_force = s.tool_force;
+                    f.cg_residual = s.cg_residual;
+                }
+                Err(_) => {
+                    f.diverged = true;
+                    f.inverted = self.scene.inverted_count();
+                    break;
+                }
+            }
+        }
+        self.update_positions();
+        self.stats = f;
+        f
+    }
+
+    /// Nearest hit of the ray `origin + t dir` (`t > 0`) on the surface
+    /// (Möller–Trumbore, both sides of each triangle).
+    pub fn pick(&self, origin: [f32; 3], dir: [f32; 3]) -> Option<Hit> {
+        let p = |i: u32| {
+            let k = 3 * i as usize;
+            [
+                self.positions[k],
+                self.positions[k + 1],
+                self.positions[k + 2],
+            ]
+        };
+        let mut best: Option<Hit> = None;
+        for tri in &self.surface {
+            let (a, b, c) = (p(tri[0]), p(tri[1]), p(tri[2]));
+            let (e1, e2) = (sub(b, a), sub(c, a));
+            let q = cross(dir, e2);
+            let det = dot(e1, q);
+            if det.abs() < 1e-12 {
+                continue;
+            }
+            let inv = 1.0 / det;
+            let s = sub(origin, a);
+            let u = dot(s, q) * inv;
+            if !(0.0..=1.0).contains(&u) {
+                continue;
+            }
+            let r = cross(s, e1);
+            let v = dot(dir, r) * inv;
+            if v < 0.0 || u + v > 1.0 {
+                continue;
+            }
+            let t = dot(e2, r) * inv;
+            if t > 0.0 && best.is_none_or(|h| t < h.t) {
+                best = Some(Hit {
+                    point: [
+                        origin[0] + t * dir[0],
+                        origin[1] + t * dir[1],
+                        origin[2] + t * dir[2],
+                    ],
+                    t,
+                });
+            }
+        }
+        best
+    }
+
+    /// Grabs the nodes within 1.5 mean edge lengths of `point` (at least the
+    /// nearest node) with a spring of stiffness `2 E r` (E at least 1e4 Pa,
+    /// r that radius): some ten times stiffer than the body around the patch
+    /// (`~ E r`), so the patch follows the cursor closely at any Young's
+    /// modulus, yet soft enough for a few CG iterations. Returns how many
+    /// nodes were grabbed.
+    pub fn grab(&mut self, point: [f32; 3]) -> usize {
+        let radius = 1.5 * self.edge;
+        let d2 = |i: usize| {
+            let k = 3 * i;
+            let d = sub(
+                [
+                    self.positions[k],
+                    self.positions[k + 1],
+                    self.positions[k + 2],
+                ],
+                point,
+            );
+            dot(d, d)
+        };
+        let n = self.rest.len();
+        let mut nodes: Vec<u32> = (0..n)
+            .filter(|&i| d2(i) <= radius * radius)
+            .map(|i| i as u32)
+            .collect();
+        if nodes.is_empty() {
+            let nearest = (0..n).min_by(|&a, &b| d2(a).total_cmp(&d2(b)));
+            nodes.extend(nearest.map(|i| i as u32));
+        }
+        let k = 2.0 * self.params.young.max(1.0e4) * radius;
+        if nodes.is_empty() || self.scene.grab(&nodes, k).is_err() {
+            return 0;
+        }
+        self.grab_offset = sub(self.scene.tool_target(), point);
+        self.grabbed = nodes;
+        self.grabbed.len()
+    }
+
+    /// Moves the tool so the grabbed patch is pulled to where it was picked,
+    /// shifted to `point` (m).
+    pub fn set_target(&mut self, point: [f32; 3]) {
+        let t = [
+            point[0] + self.grab_offset[0],
+            point[1] + self.grab_offset[1],
+            point[2] + self.grab_offset[2],
+        ];
+        // A non-finite target is refused by the core and changes nothing.
+        let _ = self.scene.set_tool_target(t);
+    }
+
+    /// The picked point the tool now pulls to (m), if grabbing.
+    pub fn target(&self) -> Option<[f32; 3]> {
+        self.scene
+            .is_grabbing()
+            .then(|| sub(self.scene.tool_target(), self.grab_offset))
+    }
+
+    /// Current centroid of the grabbed nodes shifted back to the picked point:
+    /// where the spring attaches to the body (m), if grabbing.
+    pub fn grab_point(&self) -> Option<[f32; 3]> {
+        if !self.scene.is_grabbing() || self.grabbed.is_empty() {
+            return None;
+        }
+        let mut c = [0.0f32; 3];
+        for &i in &self.grabbed {
+            let p = self.scene.position(i as usize)?;
+            c = [c[0] + p[0], c[1] + p[1], c[2] + p[2]];
+        }
+        let inv = 1.0 / self.grabbed.len() as f32;
+        Some(sub([c[0] * inv, c[1] * inv, c[2] * inv], self.grab_offset))
+    }
+
+    /// The grabbed nodes.
+    pub fn grabbed(&self) -> &[u32] {
+        &self.grabbed
+    }
+
+    /// Lets go.
+    pub fn release(&mut self) {
+        self.scene.release();
+        self.grabbed.clear();
+        self.stats.tool_force = [0.0; 3];
+    }
+
+    /// Back to the rest shape, at rest, tool released.
+    pub fn reset(&mut self) {
+        self.release();
+        self.scene.reset_state();
+        self.stats = FrameStats::default();
+        self.update_positions();
+    }
+}
+
+/// Bounding box of `points` (zeros when empty).
+pub fn bounds(points: &[[f32; 3]]) -> ([f32; 3], [f32; 3]) {
+    let mut lo = [f32::INFINITY; 3];
+    let mut hi = [f32::NEG_INFINITY; 3];
+    for p in points {
+        for k in 0..3 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    if points.is_empty() {
+        return ([0.0; 3], [0.0; 3]);
+    }
+    (lo, hi)
+}
+
+/// The boundary triangles of positively oriented tetrahedra, wound so that
+/// `(b − a) × (c − a)` points out of the body, in the order the tetrahedra
+/// list them (deterministic).
+///
+/// For `det[b−a, c−a, d−a] > 0` the outward faces of `(a, b, c, d)` are
+/// `(a, c, b)`, `(a, b, d)`, `(a, d, c)` and `(b, c, d)`: each is wound so
+/// that its normal points away from the fourth node.
+pub fn surface(tets: &[[u32; 4]]) -> Vec<[u32; 3]> {
+    let faces = |t: &[u32; 4]| {
+        let [a, b, c, d] = *t;
+        [[a, c, b], [a, b, d], [a, d, c], [b, c, d]]
+    };
+    let key = |f: [u32; 3]| {
+        let mut k = f;
+        k.sort_unstable();
+        k
+    };
+    let mut count: HashMap<[u32; 3], u32> = HashMap::with_capacity(4 * tets.len());
+    for t in tets {
+        for f in faces(t) {
+            *count.entry(key(f)).or_insert(0) += 1;
+        }
+    }
+    tets.iter()
+        .flat_map(faces)
+        .filter(|&f| count.get(&key(f)) == Some(&1))
+        .collect()
+}
+
+fn mean_edge(nodes: &[[f32; 3]], tets: &[[u32; 4]]) -> f32 {
+    let p = |i: u32| nodes.get(i as usize).copied().unwrap_or([0.0; 3]);
+    let mut sum = 0.0f64;
+    for t in tets {
+        for (a, b) in [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)] {
+            let d = sub(p(t[b]), p(t[a]));
+            sum += f64::from(dot(d, d).sqrt());
+        }
+    }
+    (sum / (6.0 * tets.len().max(1) as f64)) as f32
+}
+
+fn sub(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn cross(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+/// The expected value of [`hash_script`], stored once for the host test, the
+/// native unit test and the Node test of the wasm module: a `0x…` hex line.
+pub const EXPECTED_HASH: &str = include_str!("../hash_script.txt");
+
+/// [`EXPECTED_HASH`] as a number.
+pub fn expected_hash() -> Option<u64> {
+    u64::from_str_radix(EXPECTED_HASH.trim().trim_start_matches("0x"), 16).ok()
+}
+
+/// The scripted session whose state hash the wasm module (`cf_hash_script`,
+/// checked by `test/hash.test.mjs` in Node) and the host (`host-tests/tests/
+/// web_hash.rs`) must both produce: every built-in body, every method, the
+/// ground, a clamp, picking, a drag with the tool, a release, and parameter
+/// changes. Returns an FNV-1a hash of the per-part state hashes.
+///
+/// The expected value is stored once, in `examples/web/hash_script.txt`.
+pub fn hash_script() -> Result<u64, String> {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    let mut mix = |x: u64| {
+        for byte in x.to_le_bytes() {
+            h ^= u64::from(byte);
+            h = h.wrapping_mul(0x0000_0100_0000_01b3);
+        }
+    };
+    let methods = [Method::Qr, Method::Polar, Method::Linear, Method::QrRestB];
+
+    // 1. The beam, clamped, sags; its free end is picked from above, dragged
+    //    down and sideways while the method changes; then released.
+    let mut app = App::body(Body::Beam, Params::DEFAULT)?;
+    app.step_frame(40);
+    mix(app.scene().state_hash());
+    let hit = app
+        .pick([0.45, 0.0, 3.0], [0.0, 0.0, -1.0])
+        .ok_or("the ray missed the beam")?;
+    app.grab(hit.point);
+    for (k, &m) in methods.iter().enumerate() {
+        app.set_params(Params {
+            method: m,
+            ..app.params()
+        })?;
+        for j in 0..10 {
+            let s = (10 * k + j) as f32 * 0.004;
+            app.set_target([hit.point[0], hit.point[1] + s, hit.point[2] - 2.0 * s]);
+            app.step_frame(2);
+        }
+        mix(app.scene().state_hash());
+        mix(u64::from(app.stats().tool_force[2].to_bits()));
+    }
+    app.release();
+    app.step_frame(20);
+    mix(app.scene().state_hash());
+
+    // 2. The cube settles on the ground under gravity: polar method, softer.
+    let mut app = App::new(
+        &Body::Cube.mesh(),
+        Support::Ground,
+        Params {
+            method: Method::Polar,
+            young: 1.0e5,
+            poisson: 0.4,
+            ..Params::DEFAULT
+        },
+        false,
+    )?;
+    app.set_target([0.0; 3]); // no grab: ignored
+    app.step_frame(60);
+    mix(app.scene().state_hash());
+
+    // 3. The blob floats free without gravity; pulled and let go with the rest
+    //    B, it spins up (ghost torques) — whose bits must agree too.
+    let mut app = App::new(
+        &Body::Blob.mesh(),
+        Support::Free,
+        Params {
+            method: Method::QrRestB,
+            gravity: false,
+            ..Params::DEFAULT
+        },
+        false,
+    )?;
+    let hit = app
+        .pick([0.05, -2.0, 0.62], [0.0, 1.0, 0.0])
+        .ok_or("the ray missed the blob")?;
+    app.grab(hit.point);
+    for j in 0..20 {
+        let s = j as f32 * 0.01;
+        app.set_target([hit.point[0] + s, hit.point[1] - s, hit.point[2] + 0.5 * s]);
+        app.step_frame(2);
+    }
+    app.release();
+    app.step_frame(40);
+    mix(app.scene().state_hash());
+    Ok(h)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bodies_build_with_their_sizes() {
+        for (body, nodes, tets) in [
+            (Body::Cube, 512, 2058),
+            (Body::Beam, 525, 1920),
+            (Body::Blob, 729, 2560),
+        ] {
+            let app = App::body(body, Params::DEFAULT).unwrap();
+            assert_eq!(app.scene().node_count(), nodes, "{body:?}");
+            assert_eq!(app.scene().element_count(), tets, "{body:?}");
+        }
+    }
+
+    #[test]
+    fn surface_faces_point_outwards_and_close() {
+        let mesh = Body::Blob.mesh();
+        let s = surface(&mesh.tets);
+        // 6 faces × 8×8 squares × 2 triangles.
+        assert_eq!(s.len(), 768);
+        let p = |i: u32| mesh.nodes[i as usize];
+        // Closed and outward: the divergence theorem gives the volume,
+        // ∮ x n dA = V > 0, and every face points away from the centre.
+        let mut vol = 0.0f64;
+        for f in &s {
+            let (a, b, c) = (p(f[0]), p(f[1]), p(f[2]));
+            let n = cross(sub(b, a), sub(c, a));
+            vol += f64::from(dot(a, n)) / 6.0;
+            let centre = [
+                (a[0] + b[0] + c[0]) / 3.0,
+                (a[1] + b[1] + c[1]) / 3.0,
+                (a[2] + b[2] + c[2]) / 3.0,
+            ];
+            assert!(dot(n, centre) > 0.0);
+        }
+        let tet_vol: f64 = mesh
+            .tets
+            .iter()
+            .map(|t| {
+                let n = cross(sub(p(t[2]), p(t[0])), sub(p(t[3]), p(t[0])));
+                f64::from(dot(sub(p(t[1]), p(t[0])), n)) / 6.0
+            })
+            .sum();
+        assert!((vol - tet_vol).abs() < 1e-6 * tet_vol, "{vol} vs {tet_vol}");
+    }
+
+    #[test]
+    fn clamped_beam_sags_and_the_tool_pulls() {
+        let mut app = App::body(Body::Beam, Params::DEFAULT).unwrap();
+        assert!(!app.fixed().is_empty());
+        let z0 = app.positions()[3 * 20 + 2]; // node (20, 0, 0): the free end
+        app.step_frame(100);
+        let z1 = app.positions()[3 * 20 + 2];
+        assert!(z1 < z0 - 0.01, "{z0} -> {z1}");
+        let hit = app.pick([0.45, 0.0, 3.0], [0.0, 0.0, -1.0]).unwrap();
+        assert!(app.grab(hit.point) > 0);
+        let mut f = FrameStats::default();
+        for k in 1..=25 {
+            app.set_target([hit.point[0], hit.point[1], hit.point[2] + 0.004 * k as f32]);
+            f = app.step_frame(1);
+        }
+        // Lifted, the body pulls the tool down.
+        assert!(f.tool_force[2] < -1.0, "{:?}", f.tool_force);
+        assert!(!f.diverged);
+        app.release();
+        app.reset();
+        assert_eq!(app.positions()[3 * 20 + 2], z0);
+    }
+
+    #[test]
+    fn hash_script_matches_the_stored_hash() {
+        let got = hash_script().unwrap();
+        assert_eq!(got, hash_script().unwrap());
+        assert_eq!(
+            Some(got),
+            expected_hash(),
+            "hash_script() = {got:#018x}; if the change is intended, store it in examples/web/hash_script.txt"
+        );
+    }
+}

@@ -1,0 +1,427 @@
+//! corofem in the browser: a wasm32 module with plain `extern "C"` exports
+//! (numbers in, numbers out; no bindings generator), driven by `www/app.js`.
+//!
+//! Memory: the body's size is known only at run time (a user's file), so the
+//! scene's slots are `Vec`s (see [`demo::VecStorage`]); the core itself stays
+//! `no_std` and allocation-free. Data the page reads every frame (positions,
+//! surface triangles, statistics) stay in this module's memory and are read
+//! through typed-array views at the pointers the exports return.
+//!
+//! Strings (errors, notes) come back as UTF-8 bytes at `cf_message_ptr`, of
+//! length `cf_message_len`. Files go the other way: `cf_input(len)` returns
+//! a buffer the page fills before calling `cf_load_input`.
+//!
+//! All exports are safe functions; `#[no_mangle]` is the only attribute the
+//! `unsafe_code` lint would name, so it is allowed here for that reason.
+
+#![deny(unsafe_code)]
+
+pub mod demo;
+pub mod mesh_file;
+
+use std::cell::RefCell;
+
+use corofem::Method;
+use demo::{App, Body, Params, Support};
+
+/// Everything the page talks to.
+struct State {
+    app: Option<App>,
+    params: Params,
+    /// The last error, or a note about the last load.
+    message: String,
+    /// A file's bytes, written by the page.
+    input: Vec<u8>,
+    /// Statistics of the last frame; see `cf_stats_ptr`.
+    stats: [f32; 12],
+    /// Small vector results; see `cf_grab_state`.
+    vec: [f32; 6],
+}
+
+thread_local! {
+    static STATE: RefCell<State> = const {
+        RefCell::new(State {
+            app: None,
+            params: Params::DEFAULT,
+            message: String::new(),
+            input: Vec::new(),
+            stats: [0.0; 12],
+            vec: [0.0; 6],
+        })
+    };
+}
+
+fn with<R>(f: impl FnOnce(&mut State) -> R) -> R {
+    STATE.with(|s| f(&mut s.borrow_mut()))
+}
+
+fn with_app<R>(default: R, f: impl FnOnce(&mut App) -> R) -> R {
+    with(|s| s.app.as_mut().map_or(default, f))
+}
+
+/// Pointer as the page sees it: an offset into the module's memory.
+fn addr<T>(p: *const T) -> u32 {
+    p as usize as u32
+}
+
+/// Method by page index: 0 Qr, 1 Polar, 2 Linear, 3 QrRestB.
+fn method(i: u32) -> Option<Method> {
+    [Method::Qr, Method::Polar, Method::Linear, Method::QrRestB]
+        .get(i as usize)
+        .copied()
+}
+
+fn install(s: &mut State, result: Result<App, String>, note: String) -> i32 {
+    match result {
+        Ok(app) => {
+            s.app = Some(app);
+            s.stats = [0.0; 12];
+            s.message = note;
+            0
+        }
+        Err(e) => {
+            s.message = e;
+            1
+        }
+    }
+}
+
+/// Loads built-in body `body` (0 cube, 1 beam, 2 blob) held by `support`
+/// (0 ground, 1 clamp, 2 free, anything else: the body's default). Returns
+/// 0, or 1 with the error at `cf_message_ptr` (the previous body stays).
+#[allow(unsafe_code)]
+#[no_mangle]
+pub extern "C" fn cf_load_body(body: u32, support: u32) -> i32 {
+    with(|s| {
+        let Some(body) = Body::from_index(body) else {
+            s.message = format!("no built-in body {body}");
+            return 1;
+        };
+        let support = Support::from_index(support).unwrap_or(body.default_support());
+        let r = App::new(&body.mesh(), support, s.params, false);
+        install(s, r, String::new())
+    })
+}
+
+/// A buffer of `len` bytes for a file; returns its address.
+#[allow(unsafe_code)]
+#[no_mangle]
+pub extern "C" fn cf_input(len: u32) -> u32 {
+    with(|s| {
+        s.input.clear();
+        s.input.resize(len as usize, 0);
+        addr(s.input.as_ptr())
+    })
+}
+
+/// Reads the `tetmesh 1` or Gmsh `.msh` file in the input buffer and loads
+/// it held by `support` (as `cf_load_body`; default ground). Negatively
+/// oriented tetrahedra are re-oriented. Returns 0 (a note, if any, at
+/// `cf_message_ptr`) or 1 with the error there (the previous body stays).
+#[allow(unsafe_code)]
+#[no_mangle]
+pub extern "C" fn cf_load_input(support: u32) -> i32 {
+    with(|s| {
+        let support = Support::from_index(support).unwrap_or(Support::Ground);
+        let input = std::mem::take(&mut s.input);
+        let r = mesh_file::parse(&input).and_then(|m| mesh_file::prepare(&m));
+        match r {
+            Ok((mesh, note)) => {
+                let r = App::new(&mesh, support, s.params, true);
+                install(s, r, note)
+            }
+            Err(e) => {
+                s.message = e;
+                1
+            }
+        }
+    })
+}
+
+/// Address of the last message (UTF-8).
+#[allow(unsafe_code)]
+#[no_mangle]
+pub extern "C" fn cf_message_ptr() -> u32 {
+    with(|s| addr(s.message.as_ptr()))
+}
+
+/// Length of the last message in bytes.
+#[allow(unsafe_code)]
+#[no_mangle]
+pub extern "C" fn cf_message_len() -> u32 {
+    with(|s| s.message.len() as u32)
+}
+
+/// Sets the controls: Young's modulus (Pa), Poisson ratio, method (0 Qr,
+/// 1 Polar, 2 Linear, 3 QrRestB), time step (s), CG iterations, gravity
+/// (0 off). Kept for the next body too. Returns 0, or 1 with the error.
+#[allow(unsafe_code)]
+#[no_mangle]
+pub extern "C" fn cf_set_params(
+    young: f32,
+    poisson: f32,
+    method_index: u32,
+    dt: f32,
+    cg_iterations: u32,
+    gravity: u32,
+) -> i32 {
+    with(|s| {
+        let Some(m) = method(method_index) else {
+            s.message = format!("no method {method_index}");
+            return 1;
+        };
+        let p = Params {
+            young,
+            poisson,
+            method: m,
+            dt,
+            cg_iterations,
+            gravity: gravity != 0,
+            ..s.params
+        };
+        let r = match s.app.as_mut() {
+            Some(app) => app.set_params(p),
+            None => Ok(()),
+        };
+        match r {
+            Ok(()) => {
+                s.params = p;
+                0
+            }
+            Err(e) => {
+                s.message = e;
+                1
+            }
+        }
+    })
+}
+
+/// Number of nodes of the body.
+#[allow(unsafe_code)]
+#[no_mangle]
+pub extern "C" fn cf_node_count() -> u32 {
+    with_app(0, |a| a.scene().node_count() as u32)
+}
+
+/// Number of tetrahedra of the body.
+#[allow(unsafe_code)]
+#[no_mangle]
+pub extern "C" fn cf_tet_count() -> u32 {
+    with_app(0, |a| a.scene().element_count() as u32)
+}
+
+/// Address of the surface triangles (3 × u32 each, outward winding).
+#[allow(unsafe_code)]
+#[no_mangle]
+pub extern "C" fn cf_surface_ptr() -> u32 {
+    with_app(0, |a| addr(a.surface().as_ptr()))
+}
+
+/// Number of surface triangles.
+#[allow(unsafe_code)]
+#[no_mangle]
+pub extern "C" fn cf_surface_count() -> u32 {
+    with_app(0, |a| a.surface().len() as u32)
+}
+
+/// Address of the current positions (3 × f32 per node, m).
+#[allow(unsafe_code)]
+#[no_mangle]
+pub extern "C" fn cf_positions_ptr() -> u32 {
+    with_app(0, |a| addr(a.positions().as_ptr()))
+}
+
+/// Address of the fixed node indices (u32).
+#[allow(unsafe_code)]
+#[no_mangle]
+pub extern "C" fn cf_fixed_ptr() -> u32 {
+    with_app(0, |a| addr(a.fixed().as_ptr()))
+}
+
+/// Number of fixed nodes.
+#[allow(unsafe_code)]
+#[no_mangle]
+pub extern "C" fn cf_fixed_count() -> u32 {
+    with_app(0, |a| a.fixed().len() as u32)
+}
+
+/// How the body is held: 0 ground, 1 clamp, 2 free.
+#[allow(unsafe_code)]
+#[no_mangle]
+pub extern "C" fn cf_support() -> u32 {
+    with_app(0, |a| match a.support() {
+        Support::Ground => 0,
+        Support::Clamp => 1,
+        Support::Free => 2,
+    })
+}
+
+/// Mean edge length of the body (m).
+#[allow(unsafe_code)]
+#[no_mangle]
+pub extern "C" fn cf_mean_edge() -> f32 {
+    with_app(0.0, |a| a.mean_edge())
+}
+
+/// Runs up to `substeps` steps and refreshes the positions and the
+/// statistics. Returns the steps taken (fewer if a step was refused).
+#[allow(unsafe_code)]
+#[no_mangle]
+pub extern "C" fn cf_step(substeps: u32) -> u32 {
+    with(|s| {
+        let Some(app) = s.app.as_mut() else {
+            return 0;
+        };
+        let f = app.step_frame(substeps);
+        let l = spin(app);
+        s.stats = [
+            f.steps as f32,
+            f.inverted as f32,
+            f.contacts as f32,
+            f.tool_force[0],
+            f.tool_force[1],
+            f.tool_force[2],
+            f.cg_residual,
+            if f.diverged { 1.0 } else { 0.0 },
+            app.scene().time() as f32,
+            (l[0] * l[0] + l[1] * l[1] + l[2] * l[2]).sqrt(),
+            app.scene().kinetic_energy(),
+            0.0,
+        ];
+        f.steps
+    })
+}
+
+/// Angular momentum about the centre of mass, `L − c × p` (kg·m²/s): what
+/// stays constant for a free body unless something (a ghost torque) turns it.
+fn spin(app: &App) -> [f32; 3] {
+    let s = app.scene();
+    let (mut m, mut c) = (0.0f32, [0.0f32; 3]);
+    for i in 0..s.node_count() {
+        if let (Some(mi), Some(x)) = (s.mass(i), s.position(i)) {
+            m += mi;
+            c = [c[0] + mi * x[0], c[1] + mi * x[1], c[2] + mi * x[2]];
+        }
+    }
+    let c = [c[0] / m, c[1] / m, c[2] / m];
+    let (l, p) = (s.angular_momentum(), s.momentum());
+    [
+        l[0] - (c[1] * p[2] - c[2] * p[1]),
+        l[1] - (c[2] * p[0] - c[0] * p[2]),
+        l[2] - (c[0] * p[1] - c[1] * p[0]),
+    ]
+}
+
+/// Address of the last frame's statistics, 12 × f32: steps, inverted
+/// elements, ground contacts, tool force x y z (N), CG residual, diverged
+/// (0/1), simulated time (s), |angular momentum about the centre of mass|
+/// (kg·m²/s), kinetic energy (J), unused.
+#[allow(unsafe_code)]
+#[no_mangle]
+pub extern "C" fn cf_stats_ptr() -> u32 {
+    with(|s| addr(s.stats.as_ptr()))
+}
+
+/// Nearest surface hit of the ray `o + t d`: returns `t`, or −1 for a miss.
+#[allow(unsafe_code)]
+#[no_mangle]
+pub extern "C" fn cf_pick(ox: f32, oy: f32, oz: f32, dx: f32, dy: f32, dz: f32) -> f32 {
+    with_app(-1.0, |a| {
+        a.pick([ox, oy, oz], [dx, dy, dz]).map_or(-1.0, |h| h.t)
+    })
+}
+
+/// Grabs the body around the surface point `(x, y, z)` (m) with the tool.
+/// Returns the number of nodes grabbed.
+#[allow(unsafe_code)]
+#[no_mangle]
+pub extern "C" fn cf_grab(x: f32, y: f32, z: f32) -> u32 {
+    with_app(0, |a| a.grab([x, y, z]) as u32)
+}
+
+/// Moves the tool: the grabbed point is pulled to `(x, y, z)` (m).
+#[allow(unsafe_code)]
+#[no_mangle]
+pub extern "C" fn cf_set_target(x: f32, y: f32, z: f32) {
+    with_app((), |a| a.set_target([x, y, z]));
+}
+
+/// Lets go.
+#[allow(unsafe_code)]
+#[no_mangle]
+pub extern "C" fn cf_release() {
+    with_app((), App::release);
+}
+
+/// When grabbing, writes where the spring attaches to the body and where it
+/// pulls to (2 × xyz, m) at `cf_vec_ptr` and returns 1; otherwise 0.
+#[allow(unsafe_code)]
+#[no_mangle]
+pub extern "C" fn cf_grab_state() -> u32 {
+    with(|s| {
+        let Some(app) = s.app.as_ref() else {
+            return 0;
+        };
+        match (app.grab_point(), app.target()) {
+            (Some(p), Some(t)) => {
+                s.vec = [p[0], p[1], p[2], t[0], t[1], t[2]];
+                1
+            }
+            _ => 0,
+        }
+    })
+}
+
+/// Address of the small vector results (6 × f32).
+#[allow(unsafe_code)]
+#[no_mangle]
+pub extern "C" fn cf_vec_ptr() -> u32 {
+    with(|s| addr(s.vec.as_ptr()))
+}
+
+/// Address of the grabbed node indices (u32).
+#[allow(unsafe_code)]
+#[no_mangle]
+pub extern "C" fn cf_grabbed_ptr() -> u32 {
+    with_app(0, |a| addr(a.grabbed().as_ptr()))
+}
+
+/// Number of grabbed nodes.
+#[allow(unsafe_code)]
+#[no_mangle]
+pub extern "C" fn cf_grabbed_count() -> u32 {
+    with_app(0, |a| a.grabbed().len() as u32)
+}
+
+/// Back to the rest shape, at rest, tool released.
+#[allow(unsafe_code)]
+#[no_mangle]
+pub extern "C" fn cf_reset() {
+    with(|s| {
+        if let Some(app) = s.app.as_mut() {
+            app.reset();
+        }
+        s.stats = [0.0; 12];
+    });
+}
+
+/// The core's state hash (bits of every displacement and velocity).
+#[allow(unsafe_code)]
+#[no_mangle]
+pub extern "C" fn cf_state_hash() -> u64 {
+    with_app(0, |a| a.scene().state_hash())
+}
+
+/// Runs [`demo::hash_script`] and returns its hash (0 if it failed, with
+/// the error at `cf_message_ptr`). Leaves the page's body alone.
+#[allow(unsafe_code)]
+#[no_mangle]
+pub extern "C" fn cf_hash_script() -> u64 {
+    match demo::hash_script() {
+        Ok(h) => h,
+        Err(e) => {
+            with(|s| s.message = e);
+            0
+        }
+    }
+}

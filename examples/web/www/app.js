@@ -1,0 +1,539 @@
+// corofem web demo: loads corofem_web.wasm (plain extern "C" exports, no
+// imports), draws the body's surface on a 2D canvas with flat shading, and
+// turns mouse drags into the haptic tool's target.
+//
+// Coordinates: metres, z up. The camera orbits `cam.target`.
+
+const $ = (id) => document.getElementById(id);
+const canvas = $('canvas');
+const ctx = canvas.getContext('2d');
+
+// ---------------------------------------------------------------- module
+const { instance } = await WebAssembly.instantiateStreaming(fetch('corofem_web.wasm'), {});
+const x = instance.exports;
+const f32 = (ptr, n) => new Float32Array(x.memory.buffer, ptr, n);
+const u32 = (ptr, n) => new Uint32Array(x.memory.buffer, ptr, n);
+// Views are made after the call that returns the address: a call that
+// allocates may grow the memory, which detaches older views.
+const message = () => {
+  const ptr = x.cf_message_ptr(), len = x.cf_message_len();
+  return new TextDecoder().decode(new Uint8Array(x.memory.buffer, ptr, len));
+};
+
+// ---------------------------------------------------------------- state
+const state = {
+  frames: 0,           // frames drawn
+  steps: 0,            // steps taken since the body was loaded
+  paused: false,
+  msPerStep: 0,        // smoothed wasm time per step
+  fps: 0,
+  lastFrame: 0,
+  stats: new Float32Array(12),
+  body: null,          // { name, nodes, tets, tris: Uint32Array, fixedTris: Uint8Array, weight }
+  file: null,          // { name, bytes } of the last file loaded
+  pull: null,          // { plane point, normal } while dragging the body
+  orbit: null,         // { x, y, yaw, pitch } while orbiting
+  error: null,
+};
+const cam = { yaw: -1.2, pitch: 0.45, dist: 2.2, target: [0, 0, 0.3], fov: 40 * Math.PI / 180 };
+
+// ---------------------------------------------------------------- controls
+const dtMs = () => 2 ** Number($('dt').value);
+const young = () => 10 ** Number($('young').value);
+function fmtSi(v) {
+  const e = Math.floor(Math.log10(v));
+  return `${(v / 10 ** e).toFixed(1)}e${e}`;
+}
+function showControls() {
+  $('young-out').textContent = `${fmtSi(young())} Pa`;
+  $('poisson-out').textContent = Number($('poisson').value).toFixed(2);
+  $('cg-out').textContent = $('cg').value;
+  $('dt-out').textContent = `${dtMs()} ms`;
+  $('substeps-out').textContent = $('substeps').value;
+}
+function setStatus(text, isError = false) {
+  $('status').textContent = text;
+  $('status').className = isError ? 'error' : '';
+  state.error = isError ? text : null;
+}
+function applyParams() {
+  showControls();
+  const r = x.cf_set_params(young(), Number($('poisson').value), Number($('method').value),
+    dtMs() / 1000, Number($('cg').value), $('gravity').checked ? 1 : 0);
+  if (r !== 0) setStatus(message(), true);
+}
+for (const id of ['young', 'poisson', 'cg', 'dt', 'method', 'gravity']) {
+  $(id).addEventListener('input', applyParams);
+}
+$('substeps').addEventListener('input', showControls);
+$('reset').addEventListener('click', () => {
+  x.cf_reset();
+  state.steps = 0;
+  if (state.body) cam.target = [...state.body.centre];
+});
+$('pause').addEventListener('click', () => {
+  state.paused = !state.paused;
+  $('pause').textContent = state.paused ? 'Run' : 'Pause';
+});
+$('body').addEventListener('change', () => {
+  const v = $('body').value;
+  if (v === 'file') {
+    if (state.file) loadFile(state.file);
+    return;
+  }
+  // Each built-in body has a natural support: the beam is clamped.
+  $('support').value = v === '1' ? '1' : '0';
+  loadBody();
+});
+$('support').addEventListener('change', () => {
+  if ($('support').value === '2' && $('gravity').checked) {
+    $('gravity').checked = false; // a free body would only fall away
+    applyParams();
+  }
+  if ($('body').value === 'file' && state.file) loadFile(state.file); else loadBody();
+});
+$('file').addEventListener('change', async () => {
+  const f = $('file').files[0];
+  if (!f) return;
+  loadFile({ name: f.name, bytes: new Uint8Array(await f.arrayBuffer()) });
+  $('file').value = ''; // choosing the same file again loads it again
+});
+
+// ---------------------------------------------------------------- loading
+function loadBody() {
+  const b = Number($('body').value);
+  if (x.cf_load_body(b, Number($('support').value)) !== 0) {
+    setStatus(message(), true);
+    return;
+  }
+  afterLoad(['cube', 'beam', 'blob'][b]);
+  setStatus('');
+}
+
+function loadFile(file) {
+  const ptr = x.cf_input(file.bytes.length);
+  new Uint8Array(x.memory.buffer, ptr, file.bytes.length).set(file.bytes);
+  if (x.cf_load_input(Number($('support').value)) !== 0) {
+    setStatus(`${file.name}: ${message()}`, true);
+    return false;
+  }
+  state.file = file;
+  let opt = $('body').querySelector('option[value=file]');
+  if (!opt) {
+    opt = document.createElement('option');
+    opt.value = 'file';
+    $('body').append(opt);
+  }
+  opt.textContent = `${file.name} (${x.cf_tet_count()} tets)`;
+  $('body').value = 'file';
+  afterLoad(file.name);
+  const note = message();
+  setStatus(`${file.name}: ${x.cf_tet_count()} tetrahedra, ${x.cf_node_count()} nodes. ${note}`);
+  return true;
+}
+
+function afterLoad(name) {
+  const n = x.cf_node_count();
+  const tris = u32(x.cf_surface_ptr(), 3 * x.cf_surface_count()).slice();
+  const fixed = new Uint8Array(n);
+  for (const i of u32(x.cf_fixed_ptr(), x.cf_fixed_count())) fixed[i] = 1;
+  const fixedTris = new Uint8Array(tris.length / 3);
+  for (let t = 0; t < fixedTris.length; t++) {
+    fixedTris[t] = fixed[tris[3 * t]] & fixed[tris[3 * t + 1]] & fixed[tris[3 * t + 2]];
+  }
+  const p = f32(x.cf_positions_ptr(), 3 * n);
+  // Volume by the divergence theorem, for the weight that scales the arrow.
+  let vol = 0;
+  const lo = [Infinity, Infinity, Infinity], hi = [-Infinity, -Infinity, -Infinity];
+  for (let t = 0; t < tris.length; t += 3) {
+    const a = 3 * tris[t], b = 3 * tris[t + 1], c = 3 * tris[t + 2];
+    const n0 = (p[b + 1] - p[a + 1]) * (p[c + 2] - p[a + 2]) - (p[b + 2] - p[a + 2]) * (p[c + 1] - p[a + 1]);
+    const n1 = (p[b + 2] - p[a + 2]) * (p[c] - p[a]) - (p[b] - p[a]) * (p[c + 2] - p[a + 2]);
+    const n2 = (p[b] - p[a]) * (p[c + 1] - p[a + 1]) - (p[b + 1] - p[a + 1]) * (p[c] - p[a]);
+    vol += (p[a] * n0 + p[a + 1] * n1 + p[a + 2] * n2) / 6;
+  }
+  for (let i = 0; i < 3 * n; i++) {
+    lo[i % 3] = Math.min(lo[i % 3], p[i]);
+    hi[i % 3] = Math.max(hi[i % 3], p[i]);
+  }
+  const size = Math.max(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]);
+  // The clamp, drawn as a wall behind the fixed nodes.
+  let wall = null;
+  const fixedIdx = u32(x.cf_fixed_ptr(), x.cf_fixed_count());
+  if (fixedIdx.length) {
+    const wlo = [Infinity, Infinity, Infinity], whi = [-Infinity, -Infinity, -Infinity];
+    for (const i of fixedIdx) {
+      for (let k = 0; k < 3; k++) {
+        wlo[k] = Math.min(wlo[k], p[3 * i + k]);
+        whi[k] = Math.max(whi[k], p[3 * i + k]);
+      }
+    }
+    const m = 0.6 * Math.max(whi[1] - wlo[1], whi[2] - wlo[2], 0.05);
+    wall = [[wlo[0], wlo[1] - m, wlo[2] - m], [wlo[0], whi[1] + m, wlo[2] - m],
+      [wlo[0], whi[1] + m, whi[2] + m], [wlo[0], wlo[1] - m, whi[2] + m]];
+  }
+  state.body = { name, nodes: n, tets: x.cf_tet_count(), tris, fixedTris, weight: 1000 * vol * 9.81, size, wall };
+  state.steps = 0;
+  state.stats.fill(0);
+  state.body.centre = [0, 0, 0.5 * (lo[2] + hi[2])];
+  cam.target = [...state.body.centre];
+  cam.dist = 0.8 + 1.6 * size;
+  $('counts').textContent = `${name}: ${n} nodes · ${state.body.tets} tets · ${tris.length / 3} faces`;
+}
+
+// ---------------------------------------------------------------- camera
+function camera() {
+  const cp = Math.cos(cam.pitch), sp = Math.sin(cam.pitch);
+  const eye = [
+    cam.target[0] + cam.dist * cp * Math.cos(cam.yaw),
+    cam.target[1] + cam.dist * cp * Math.sin(cam.yaw),
+    cam.target[2] + cam.dist * sp,
+  ];
+  const f = norm(sub(cam.target, eye));
+  const r = norm(cross(f, [0, 0, 1]));
+  const u = cross(r, f);
+  const focal = 0.5 * canvas.height / Math.tan(0.5 * cam.fov);
+  return { eye, f, r, u, focal, cx: 0.5 * canvas.width, cy: 0.5 * canvas.height };
+}
+const sub = (a, b) => [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+const add = (a, b) => [a[0] + b[0], a[1] + b[1], a[2] + b[2]];
+const scale = (a, s) => [a[0] * s, a[1] * s, a[2] * s];
+const dot = (a, b) => a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+const cross = (a, b) => [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]];
+const norm = (a) => scale(a, 1 / Math.hypot(a[0], a[1], a[2]));
+
+// World point to canvas pixels [x, y, depth]; depth ≤ 0 is behind the eye.
+function project(c, p) {
+  const d = sub(p, c.eye);
+  const z = dot(d, c.f);
+  return [c.cx + c.focal * dot(d, c.r) / z, c.cy - c.focal * dot(d, c.u) / z, z];
+}
+// Canvas pixel to a world ray from the eye.
+function ray(c, px, py) {
+  return norm(add(c.f, add(scale(c.r, (px - c.cx) / c.focal), scale(c.u, -(py - c.cy) / c.focal))));
+}
+
+// ---------------------------------------------------------------- mouse
+const dpr = () => window.devicePixelRatio || 1;
+function canvasPoint(e) {
+  const rect = canvas.getBoundingClientRect();
+  return [(e.clientX - rect.left) * dpr(), (e.clientY - rect.top) * dpr()];
+}
+canvas.addEventListener('pointerdown', (e) => {
+  canvas.setPointerCapture(e.pointerId);
+  const [px, py] = canvasPoint(e);
+  const c = camera();
+  const d = ray(c, px, py);
+  const t = state.body ? x.cf_pick(...c.eye, ...d) : -1;
+  if (e.button === 0 && t > 0) {
+    const hit = add(c.eye, scale(d, t));
+    if (x.cf_grab(...hit) > 0) {
+      // Drag in the plane through the hit point facing the camera.
+      state.pull = { point: hit, normal: c.f };
+      canvas.classList.add('pulling');
+      return;
+    }
+  }
+  state.orbit = { x: e.clientX, y: e.clientY, yaw: cam.yaw, pitch: cam.pitch };
+});
+canvas.addEventListener('pointermove', (e) => {
+  if (state.pull) {
+    const [px, py] = canvasPoint(e);
+    const c = camera();
+    const d = ray(c, px, py);
+    const den = dot(d, state.pull.normal);
+    if (Math.abs(den) < 1e-6) return;
+    const t = dot(sub(state.pull.point, c.eye), state.pull.normal) / den;
+    x.cf_set_target(...add(c.eye, scale(d, t)));
+  } else if (state.orbit) {
+    cam.yaw = state.orbit.yaw - 0.008 * (e.clientX - state.orbit.x);
+    cam.pitch = Math.max(-1.4, Math.min(1.5, state.orbit.pitch + 0.008 * (e.clientY - state.orbit.y)));
+  }
+});
+function endDrag() {
+  if (state.pull) x.cf_release();
+  state.pull = null;
+  state.orbit = null;
+  canvas.classList.remove('pulling');
+}
+canvas.addEventListener('pointerup', endDrag);
+canvas.addEventListener('pointercancel', endDrag);
+canvas.addEventListener('wheel', (e) => {
+  e.preventDefault();
+  cam.dist = Math.max(0.2, Math.min(20, cam.dist * Math.exp(0.001 * e.deltaY)));
+}, { passive: false });
+
+// ---------------------------------------------------------------- drawing
+function resize() {
+  const w = Math.round(canvas.clientWidth * dpr()), h = Math.round(canvas.clientHeight * dpr());
+  if (canvas.width !== w || canvas.height !== h) { canvas.width = w; canvas.height = h; }
+}
+
+function drawGround(c) {
+  if (c.eye[2] <= 0) return;
+  const R = 1.2, n = 12; // lines every 0.1 m over [-1.2, 1.2]²
+  ctx.lineWidth = 1 * dpr();
+  for (const axes of [false, true]) {
+    ctx.beginPath();
+    for (let k = -n; k <= n; k++) {
+      if ((k === 0) !== axes) continue;
+      const v = k * R / n;
+      segment(c, [v, -R, 0], [v, R, 0]);
+      segment(c, [-R, v, 0], [R, v, 0]);
+    }
+    ctx.strokeStyle = axes ? 'rgba(255,255,255,0.22)' : 'rgba(255,255,255,0.09)';
+    ctx.stroke();
+  }
+}
+// Adds a world segment, clipped at the near plane, to the current path.
+function segment(c, a, b) {
+  const near = 0.05;
+  const za = dot(sub(a, c.eye), c.f), zb = dot(sub(b, c.eye), c.f);
+  if (za < near && zb < near) return;
+  if (za < near) a = add(a, scale(sub(b, a), (near - za) / (zb - za)));
+  else if (zb < near) b = add(b, scale(sub(a, b), (near - zb) / (za - zb)));
+  const pa = project(c, a), pb = project(c, b);
+  ctx.moveTo(pa[0], pa[1]);
+  ctx.lineTo(pb[0], pb[1]);
+}
+
+function drawBody(c, p) {
+  const b = state.body;
+  const n = b.nodes;
+  const sx = new Float32Array(n), sy = new Float32Array(n), sz = new Float32Array(n);
+  for (let i = 0; i < n; i++) {
+    const q = project(c, [p[3 * i], p[3 * i + 1], p[3 * i + 2]]);
+    sx[i] = q[0]; sy[i] = q[1]; sz[i] = q[2];
+  }
+  // Shadow on the ground: the upward-facing triangles flattened onto z = 0
+  // (they cover the body's footprint with one winding), filled once.
+  if (x.cf_support() !== 2 && c.eye[2] > 0) {
+    ctx.beginPath();
+    for (let t = 0; t < b.tris.length; t += 3) {
+      const ia = 3 * b.tris[t], ib = 3 * b.tris[t + 1], ic = 3 * b.tris[t + 2];
+      const nz = (p[ib] - p[ia]) * (p[ic + 1] - p[ia + 1]) - (p[ib + 1] - p[ia + 1]) * (p[ic] - p[ia]);
+      if (nz <= 0) continue;
+      for (let k = 0; k < 3; k++) {
+        const i = 3 * b.tris[t + k];
+        const q = project(c, [p[i], p[i + 1], 0]);
+        if (k === 0) ctx.moveTo(q[0], q[1]); else ctx.lineTo(q[0], q[1]);
+      }
+      ctx.closePath();
+    }
+    ctx.fillStyle = 'rgba(0,0,0,0.28)';
+    ctx.fill('nonzero');
+  }
+  if (b.wall && b.wall.every((q) => dot(sub(q, c.eye), c.f) > 0.05)) {
+    ctx.beginPath();
+    b.wall.forEach((q, k) => {
+      const s = project(c, q);
+      if (k === 0) ctx.moveTo(s[0], s[1]); else ctx.lineTo(s[0], s[1]);
+    });
+    ctx.closePath();
+    ctx.fillStyle = 'rgba(150,156,166,0.55)';
+    ctx.strokeStyle = 'rgba(210,215,222,0.8)';
+    ctx.lineWidth = 1.5 * dpr();
+    ctx.fill();
+    ctx.stroke();
+  }
+  // Front faces, far to near, flat-shaded by a key light fixed in the world
+  // (above, from −x −y) and a head light.
+  const light = norm([-0.4, -0.5, 0.85]);
+  const order = [];
+  for (let t = 0, k = 0; t < b.tris.length; t += 3, k++) {
+    const ia = 3 * b.tris[t], ib = 3 * b.tris[t + 1], ic = 3 * b.tris[t + 2];
+    const a = [p[ia], p[ia + 1], p[ia + 2]];
+    const nrm = cross(sub([p[ib], p[ib + 1], p[ib + 2]], a), sub([p[ic], p[ic + 1], p[ic + 2]], a));
+    if (dot(nrm, sub(c.eye, a)) <= 0) continue;
+    const za = sz[b.tris[t]], zb = sz[b.tris[t + 1]], zc = sz[b.tris[t + 2]];
+    if (za <= 0.01 || zb <= 0.01 || zc <= 0.01) continue;
+    order.push([za + zb + zc, k, nrm]);
+  }
+  order.sort((u, v) => v[0] - u[0]);
+  ctx.lineJoin = 'round';
+  ctx.lineWidth = 0.8;
+  for (const [, k, nrm] of order) {
+    const l = Math.hypot(nrm[0], nrm[1], nrm[2]) || 1;
+    const ndl = dot(nrm, light) / l;
+    const head = -dot(nrm, c.f) / l;
+    const s = 0.3 + 0.62 * Math.max(0, ndl) + 0.12 * Math.max(0, head);
+    const base = b.fixedTris[k] ? [120, 124, 132] : [86, 156, 214];
+    const col = `rgb(${Math.min(255, base[0] * s) | 0},${Math.min(255, base[1] * s) | 0},${Math.min(255, base[2] * s) | 0})`;
+    const i0 = b.tris[3 * k], i1 = b.tris[3 * k + 1], i2 = b.tris[3 * k + 2];
+    ctx.beginPath();
+    ctx.moveTo(sx[i0], sy[i0]);
+    ctx.lineTo(sx[i1], sy[i1]);
+    ctx.lineTo(sx[i2], sy[i2]);
+    ctx.closePath();
+    ctx.fillStyle = col;
+    ctx.strokeStyle = col; // hides the seams between neighbouring fills
+    ctx.fill();
+    ctx.stroke();
+  }
+  return { sx, sy };
+}
+
+function drawTool(c, screen) {
+  if (!x.cf_grab_state()) return;
+  const v = f32(x.cf_vec_ptr(), 6);
+  const attach = [v[0], v[1], v[2]], target = [v[3], v[4], v[5]];
+  const s = state.stats;
+  const force = [s[3], s[4], s[5]];
+  const mag = Math.hypot(...force);
+  // Grabbed nodes.
+  ctx.fillStyle = 'rgba(242,158,76,0.85)';
+  const g = u32(x.cf_grabbed_ptr(), x.cf_grabbed_count());
+  for (const i of g) {
+    ctx.beginPath();
+    ctx.arc(screen.sx[i], screen.sy[i], 2 * dpr(), 0, 2 * Math.PI);
+    ctx.fill();
+  }
+  // The spring, body to cursor.
+  const pa = project(c, attach), pt = project(c, target);
+  ctx.setLineDash([5 * dpr(), 4 * dpr()]);
+  ctx.strokeStyle = 'rgba(255,255,255,0.7)';
+  ctx.lineWidth = 1.5 * dpr();
+  ctx.beginPath(); ctx.moveTo(pa[0], pa[1]); ctx.lineTo(pt[0], pt[1]); ctx.stroke();
+  ctx.setLineDash([]);
+  // The force on the tool, from the cursor: its length grows with |F| and
+  // saturates at 0.4 body sizes, a few times the body's weight.
+  let tip = pt;
+  if (mag > 1e-6) {
+    const len = 0.4 * Math.max(0.3, state.body.size) * Math.tanh(0.05 + mag / Math.max(state.body.weight, 1e-3));
+    tip = project(c, add(target, scale(force, len / mag)));
+    arrow(pt, tip, '#f29e4c');
+  }
+  ctx.beginPath();
+  ctx.arc(pt[0], pt[1], 4 * dpr(), 0, 2 * Math.PI);
+  ctx.fillStyle = '#fff';
+  ctx.fill();
+  const label = `${mag.toFixed(mag < 10 ? 2 : 1)} N`;
+  const [lx, ly] = [tip[0] + 8 * dpr(), tip[1] - 6 * dpr()];
+  ctx.font = `bold ${14 * dpr()}px system-ui, sans-serif`;
+  ctx.lineJoin = 'round';
+  ctx.lineWidth = 4 * dpr();
+  ctx.strokeStyle = 'rgba(20,22,26,0.9)';
+  ctx.strokeText(label, lx, ly);
+  ctx.fillStyle = '#f29e4c';
+  ctx.fillText(label, lx, ly);
+}
+
+function arrow(a, b, color) {
+  const dx = b[0] - a[0], dy = b[1] - a[1];
+  const l = Math.hypot(dx, dy);
+  if (l < 1) return;
+  const ux = dx / l, uy = dy / l, h = Math.min(14 * dpr(), 0.4 * l), w = 0.45 * h;
+  ctx.strokeStyle = color;
+  ctx.fillStyle = color;
+  ctx.lineWidth = 3 * dpr();
+  ctx.beginPath(); ctx.moveTo(a[0], a[1]); ctx.lineTo(b[0] - ux * h, b[1] - uy * h); ctx.stroke();
+  ctx.beginPath();
+  ctx.moveTo(b[0], b[1]);
+  ctx.lineTo(b[0] - ux * h - uy * w, b[1] - uy * h + ux * w);
+  ctx.lineTo(b[0] - ux * h + uy * w, b[1] - uy * h - ux * w);
+  ctx.closePath();
+  ctx.fill();
+}
+
+function draw() {
+  resize();
+  const c = camera();
+  const grad = ctx.createLinearGradient(0, 0, 0, canvas.height);
+  grad.addColorStop(0, '#3a4250');
+  grad.addColorStop(1, '#171a1f');
+  ctx.fillStyle = grad;
+  ctx.fillRect(0, 0, canvas.width, canvas.height);
+  if (!state.body) return;
+  const p = f32(x.cf_positions_ptr(), 3 * state.body.nodes);
+  if (x.cf_support() === 2) {
+    // A free body drifts: the camera follows its centre.
+    const m = [0, 0, 0];
+    for (let i = 0; i < p.length; i++) m[i % 3] += p[i];
+    const target = scale(m, 3 / p.length);
+    if (target.every(Number.isFinite)) cam.target = add(scale(cam.target, 0.9), scale(target, 0.1));
+  } else {
+    drawGround(c);
+  }
+  const screen = drawBody(c, p);
+  drawTool(c, screen);
+}
+
+// ---------------------------------------------------------------- loop
+function showStats() {
+  const s = state.stats;
+  $('ms-step').textContent = state.msPerStep.toFixed(3);
+  $('steps-frame').textContent = s[0] | 0;
+  $('fps').textContent = state.fps.toFixed(0);
+  $('sim-time').textContent = s[8].toFixed(2);
+  $('inverted').textContent = s[1] | 0;
+  $('inverted').className = s[1] > 0 ? 'bad' : '';
+  $('force').textContent = Math.hypot(s[3], s[4], s[5]).toFixed(2);
+  $('angmom').textContent = s[9].toPrecision(3);
+  if (s[7] && !state.error) {
+    setStatus('A step diverged and was refused: lower the time step, raise the CG iterations or press Reset.', true);
+    state.error = null; // keep trying; the message stays until the next status
+  }
+}
+
+function frame(now) {
+  try {
+    if (state.body && !state.paused) {
+      const n = Number($('substeps').value);
+      const t0 = performance.now();
+      const done = x.cf_step(n);
+      const t1 = performance.now();
+      state.stats.set(f32(x.cf_stats_ptr(), 12));
+      if (done > 0) {
+        const ms = (t1 - t0) / done;
+        state.msPerStep = state.msPerStep ? 0.95 * state.msPerStep + 0.05 * ms : ms;
+      }
+      state.steps += done;
+    }
+    draw();
+    if (state.lastFrame) {
+      const fps = 1000 / Math.max(1e-3, now - state.lastFrame);
+      state.fps = state.fps ? 0.95 * state.fps + 0.05 * fps : fps;
+    }
+    state.lastFrame = now;
+    state.frames++;
+    showStats();
+  } catch (e) {
+    setStatus(`The module stopped (${e.message}). Reload the page.`, true);
+    throw e;
+  }
+  requestAnimationFrame(frame);
+}
+
+// ---------------------------------------------------------------- start
+showControls();
+applyParams();
+$('body').value = '1';
+$('support').value = '1';
+loadBody();
+requestAnimationFrame(frame);
+
+// For the browser test and the curious: state and helpers on window.
+window.demo = {
+  state,
+  exports: x,
+  positions: () => Array.from(f32(x.cf_positions_ptr(), 3 * state.body.nodes)),
+  surface: () => Array.from(state.body.tris),
+  eye: () => camera().eye,
+  draw,
+  // Canvas point (CSS pixels, relative to the canvas) of a world point.
+  screenOf: (p) => {
+    const q = project(camera(), p);
+    return [q[0] / dpr(), q[1] / dpr()];
+  },
+  // Milliseconds per step for `steps` steps of the current body, run in one
+  // call (after `warmup` untimed steps); the state is then reset.
+  bench: (steps = 400, warmup = 50) => {
+    x.cf_step(warmup);
+    const t0 = performance.now();
+    const done = x.cf_step(steps);
+    const ms = (performance.now() - t0) / done;
+    x.cf_reset();
+    return ms;
+  },
+  ready: true,
+};
