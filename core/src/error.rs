@@ -43,7 +43,8 @@ pub enum Error {
         node: usize,
     },
     /// An element has zero rest volume (flat, or two nodes at the same place),
-    /// or a volume too small to represent in f32.
+    /// or a shape f32 cannot represent: a volume, mass or stiffness
+    /// coefficient that underflows or overflows, or edges longer than ~1e19.
     DegenerateElement {
         /// The offending element.
         element: usize,
@@ -133,8 +134,9 @@ impl core::error::Error for Error {}
 pub enum StepError {
     /// An input of this step (tool target) is NaN or infinite.
     NonFiniteInput,
-    /// The solve produced a NaN or infinite velocity or position (for instance
-    /// a time step far beyond what the material allows); the step was not applied.
+    /// The solve produced a NaN or infinite velocity, position or tool force
+    /// (for instance a load or a tool spring beyond what f32 holds for this
+    /// body); the step was not applied.
     Diverged,
 }
 

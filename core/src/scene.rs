@@ -201,8 +201,22 @@ impl<S: Storage> Scene<S> {
         for (e, tet) in tets.iter().enumerate() {
             let t = oriented(e, tet, positions, options)?;
             let (_, six_v0) = rest_frame(positions, &t);
-            // 1/(36 V₀) must be finite for the element coefficients.
-            if !(six_v0 >= f32::MIN_POSITIVE && (1.0 / (6.0 * six_v0)).is_finite()) {
+            // Everything the element contributes must be a normal f32 number:
+            // its frame (no fallback for an edge whose square over- or
+            // underflows), 1/(36 V₀), its share ρ V₀/4 of the lumped mass (a
+            // subnormal mass makes the preconditioner 1/m infinite) and its
+            // Lamé coefficients E/(36 V₀).
+            let quarter = material.density * six_v0 * (1.0 / 24.0);
+            let lame = element_lame(material.young, per_young, six_v0);
+            if !(regular_frame(positions, &t)
+                && six_v0 >= f32::MIN_POSITIVE
+                && six_v0.is_finite()
+                && (1.0 / (6.0 * six_v0)).is_finite()
+                && quarter >= f32::MIN_POSITIVE
+                && quarter.is_finite()
+                && lame[0].is_finite()
+                && lame[1].is_finite())
+            {
                 return Err(Error::DegenerateElement { element: e });
             }
             for i in t {
@@ -388,7 +402,8 @@ impl<S: Storage> Scene<S> {
         self.hdr.inverted
     }
 
-    /// Sets Young's modulus of one element (Pa, `≥ 0`).
+    /// Sets Young's modulus of one element (Pa, `≥ 0`). Refused as `young`
+    /// when the element's coefficient `E/(36 V₀)` would overflow f32.
     pub fn set_young(&mut self, e: usize, young: f32) -> Result<(), Error> {
         validate_young(young)?;
         let per_young = lame_per_young(self.hdr.poisson);
@@ -397,15 +412,23 @@ impl<S: Storage> Scene<S> {
             .elems
             .get_mut(e)
             .ok_or(Error::ElementOutOfRange { element: e })?;
+        let lame = element_lame(young, per_young, el.six_v0());
+        if !(lame[0].is_finite() && lame[1].is_finite()) {
+            return Err(Error::InvalidParameter { name: "young" });
+        }
         el.young = young;
-        el.lame = element_lame(young, per_young, el.six_v0());
+        el.lame = lame;
         Ok(())
     }
 
     /// Sets Young's modulus of every element (Pa, `≥ 0`) — the paper's rabbit:
-    /// crushed at zero stiffness, then raised.
+    /// crushed at zero stiffness, then raised. Refused as `young` when an
+    /// element's coefficient `E/(36 V₀)` would overflow f32.
     pub fn set_young_all(&mut self, young: f32) -> Result<(), Error> {
         validate_young(young)?;
+        if !self.lame_fits(Some(young), self.hdr.poisson) {
+            return Err(Error::InvalidParameter { name: "young" });
+        }
         for el in self.view().elems.iter_mut() {
             el.young = young;
         }
@@ -413,12 +436,26 @@ impl<S: Storage> Scene<S> {
         Ok(())
     }
 
-    /// Sets the Poisson ratio of the whole body (`0 ≤ ν < 0.5`).
+    /// Sets the Poisson ratio of the whole body (`0 ≤ ν < 0.5`). Refused as
+    /// `poisson` when an element's `λ/(36 V₀)` would overflow f32.
     pub fn set_poisson(&mut self, poisson: f32) -> Result<(), Error> {
         validate_poisson(poisson)?;
+        if !self.lame_fits(None, poisson) {
+            return Err(Error::InvalidParameter { name: "poisson" });
+        }
         self.hdr.poisson = poisson;
         self.refresh_lame();
         Ok(())
+    }
+
+    /// Whether every element's coefficients are finite with Young's modulus
+    /// `young` (or each element's own) and Poisson ratio `poisson`.
+    fn lame_fits(&self, young: Option<f32>, poisson: f32) -> bool {
+        let per_young = lame_per_young(poisson);
+        self.elems().iter().all(|el| {
+            let lame = element_lame(young.unwrap_or(el.young), per_young, el.six_v0());
+            lame[0].is_finite() && lame[1].is_finite()
+        })
     }
 
     fn refresh_lame(&mut self) {
@@ -581,6 +618,22 @@ fn oriented(
 fn edge(positions: &[Vec3], t: &[u32; 4], k: usize) -> Vec3 {
     let p = |i: u32| positions.get(i as usize).copied().unwrap_or([0.0; 3]);
     sub(p(t[k]), p(t[0]))
+}
+
+/// Whether the QR frame of the rest edges takes its regular path: `ab` and
+/// `e1 × ac` have squared lengths that are normal f32 numbers (true for any
+/// tetrahedron whose edges lie between ~1e-19 and ~1e19 m and whose face
+/// `abc` is not flat).
+fn regular_frame(positions: &[Vec3], t: &[u32; 4]) -> bool {
+    let regular = |v: Vec3| {
+        let n2 = crate::math::dot(v, v);
+        n2 >= f32::MIN_POSITIVE && n2.is_finite()
+    };
+    let ab = edge(positions, t, 1);
+    match crate::math::normalize(ab) {
+        Some(e1) => regular(ab) && regular(crate::math::cross(e1, edge(positions, t, 2))),
+        None => false,
+    }
 }
 
 /// QR frame of the rest shape and `6V₀ = xb·yc·zd` (m³).

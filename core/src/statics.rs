@@ -123,6 +123,8 @@ impl<S: Storage> Scene<S> {
             });
             // Out-of-balance force r = f_el + f_ext + m g (+ spring), and the load.
             let (mut r2, mut load2) = (0.0f32, 0.0f32);
+            // The same sums in f64, used only when the f32 ones overflow.
+            let (mut r2_wide, mut load2_wide) = (0.0f64, 0.0f64);
             for (n, w) in nodes.iter().zip(work.iter_mut()) {
                 let mut load = add(n.f_ext, scale(s.gravity, n.mass));
                 #[allow(unused_mut)] // only the tool adds to it
@@ -144,8 +146,10 @@ impl<S: Storage> Scene<S> {
                 w.inv_p = if diag > 0.0 { 1.0 / diag } else { 0.0 };
                 r2 += dot(w.r, w.r);
                 load2 += dot(load, load);
+                r2_wide += dot_wide(w.r, w.r);
+                load2_wide += dot_wide(load, load);
             }
-            let residual = sqrt(r2) / sqrt(load2).max(f32::MIN_POSITIVE);
+            let residual = norm_ratio(r2, load2, r2_wide, load2_wide);
             last = NewtonStats {
                 iteration,
                 residual,
@@ -182,12 +186,15 @@ impl<S: Storage> Scene<S> {
                     return Err(Error::StaticDiverged);
                 }
                 let (mut dx2, mut u2) = (0.0f32, 0.0f32);
+                let (mut dx2_wide, mut u2_wide) = (0.0f64, 0.0f64);
                 for (n, w) in nodes.iter_mut().zip(work.iter()) {
                     n.u = add(n.u, w.x);
                     dx2 += dot(w.x, w.x);
                     u2 += dot(n.u, n.u);
+                    dx2_wide += dot_wide(w.x, w.x);
+                    u2_wide += dot_wide(n.u, n.u);
                 }
-                last.update = sqrt(dx2) / sqrt(u2).max(f32::MIN_POSITIVE);
+                last.update = norm_ratio(dx2, u2, dx2_wide, u2_wide);
                 last.converged = last.update <= cfg.update_tolerance;
             }
             on_iteration(&last);
@@ -201,4 +208,25 @@ impl<S: Storage> Scene<S> {
         }
         Ok(last)
     }
+}
+
+/// `a · b` in f64, for sums of squares that may overflow f32.
+fn dot_wide(a: crate::math::Vec3, b: crate::math::Vec3) -> f64 {
+    f64::from(a[0]) * f64::from(b[0])
+        + f64::from(a[1]) * f64::from(b[1])
+        + f64::from(a[2]) * f64::from(b[2])
+}
+
+/// `√a2 / √b2` for two sums of squares, as f32. The f32 sums give the usual
+/// bits; when the f32 ratio is not finite (a sum overflowed: components
+/// above ~1e19; or a huge residual over a zero load) the f64 sums give a
+/// finite one instead (clamped to `f32::MAX` before the root).
+fn norm_ratio(a2: f32, b2: f32, a2_wide: f64, b2_wide: f64) -> f32 {
+    let ratio = sqrt(a2) / sqrt(b2).max(f32::MIN_POSITIVE);
+    if ratio.is_finite() {
+        return ratio;
+    }
+    let floor = f64::from(f32::MIN_POSITIVE) * f64::from(f32::MIN_POSITIVE);
+    let q = a2_wide / b2_wide.max(floor);
+    sqrt((q as f32).min(f32::MAX))
 }

@@ -181,22 +181,41 @@ pub(crate) fn step(v: View<'_>) -> Result<StepStats, StepError> {
     }
     let outcome = cg::solve(work, s.cg_iterations, s.cg_tolerance, project, apply);
 
-    // Check, then apply.
+    // Check, then apply. The new displacement and velocity (after the ground
+    // projection) go into the spent CG scratch `d` and `q`, and the state is
+    // written only if they and the tool force are all finite.
     if outcome.overflow {
-        return Err(StepError::Diverged);
-    }
-    let ok = nodes.iter().zip(work.iter()).all(|(n, w)| {
-        let v = add(n.v, w.x);
-        is_finite3(v) && is_finite3(axpy(n.u, h, v))
-    });
-    if !ok {
         return Err(StepError::Diverged);
     }
     #[allow(unused_mut)] // only the tool adds to it
     let mut tool_force = [0.0f32; 3];
+    let mut ok = true;
+    for (n, w) in nodes.iter().zip(work.iter_mut()) {
+        let v = add(n.v, w.x);
+        let u = axpy(n.u, h, v);
+        #[cfg(feature = "ground")]
+        let (u, v) = match ground {
+            Some(g) => g.project(n.x0, u, v),
+            None => (u, v),
+        };
+        #[cfg(feature = "tool")]
+        if n.flags & GRABBED != 0 && tool.active() {
+            // The body pulls the tool with minus the spring force.
+            tool_force = add(
+                tool_force,
+                scale(sub(add(n.x0, u), tool.anchor(n.grab)), tool.k_node),
+            );
+        }
+        ok &= is_finite3(u) && is_finite3(v);
+        w.d = u;
+        w.q = v;
+    }
+    if !ok || !is_finite3(tool_force) {
+        return Err(StepError::Diverged);
+    }
     for (n, w) in nodes.iter_mut().zip(work.iter()) {
-        n.v = add(n.v, w.x);
-        n.u = axpy(n.u, h, n.v);
+        n.u = w.d;
+        n.v = w.q;
         #[cfg(feature = "ground")]
         if let Some(g) = ground {
             // Release a held node whose contact force would pull (n·r > 0).
@@ -204,15 +223,6 @@ pub(crate) fn step(v: View<'_>) -> Result<StepStats, StepError> {
             if n.flags & CONTACT != 0 && dot(g.normal, w.r) > 0.0 {
                 n.flags |= RELEASED;
             }
-            (n.u, n.v) = g.project(n.x0, n.u, n.v);
-        }
-        #[cfg(feature = "tool")]
-        if n.flags & GRABBED != 0 && tool.active() {
-            // The body pulls the tool with minus the spring force.
-            tool_force = add(
-                tool_force,
-                scale(sub(n.position(), tool.anchor(n.grab)), tool.k_node),
-            );
         }
     }
     hdr.time += f64::from(h);

@@ -122,9 +122,15 @@ impl<S: crate::Storage> crate::Scene<S> {
 
     /// One haptic-loop step: moves the tool target to `target` (m), steps,
     /// and returns the statistics with the force the body exerts on the tool
-    /// (`StepStats::tool_force`, N) — what the device renders.
+    /// (`StepStats::tool_force`, N) — what the device renders. On any error
+    /// the target stays where it was, like the rest of the state.
     pub fn step_haptic(&mut self, target: Vec3) -> Result<crate::StepStats, crate::StepError> {
+        let previous = self.hdr.tool.target;
         self.set_tool_target(target)?;
-        self.step()
+        let stepped = self.step();
+        if stepped.is_err() {
+            self.hdr.tool.target = previous;
+        }
+        stepped
     }
 }

@@ -7,6 +7,8 @@ use corofem::{BoxMesh, BuildOptions, Material};
 
 pub use corofem_io::{HeapScene, HeapStorage};
 
+pub mod reliability;
+
 /// A mesh in the core's input form.
 #[derive(Clone, Debug)]
 pub struct CoreMesh {

@@ -261,10 +261,12 @@ impl<'a> Sim<'a> {
     fn simulate(&mut self, mut vtk: Option<&mut VtkSeries>, quiet: bool) -> CliResult<Outcome> {
         let spec = self.spec;
         let steps = spec.steps;
-        let mut history = Vec::with_capacity((steps / spec.every + 2) as usize);
+        // Capacities are capped: a huge `steps` must not reserve memory up
+        // front (it made `Vec::with_capacity` panic with "capacity overflow").
+        let mut history = Vec::with_capacity((steps / spec.every + 2).min(1 << 16) as usize);
         let first = self.record(0, 0.0, &StepStats::default())?;
         self.push(&mut history, first, vtk.as_deref_mut())?;
-        let mut ms = Vec::with_capacity(steps as usize);
+        let mut ms = Vec::with_capacity(steps.min(1 << 20) as usize);
         let mut extremes = Extremes::default();
         let mut changes = spec.material_changes.iter().peekable();
         let mut progress = Progress::new(steps, "steps", quiet);

@@ -275,6 +275,9 @@ pub struct StaticSpec {
 
 /// Default `[output] every`.
 pub const DEFAULT_EVERY: u64 = 10;
+/// Most time steps of one run (1e9: 14 hours at 50 µs a step; the run keeps
+/// one timing sample per step).
+pub const MAX_STEPS: u64 = 1_000_000_000;
 /// Largest node count the core addresses (u16 indices).
 pub const MAX_NODES: usize = 1 << 16;
 
@@ -694,7 +697,14 @@ impl Ctx<'_> {
         }
         let is_static = s.static_solve.unwrap_or(false);
         let steps = match (s.steps, is_static) {
-            (Some(n), _) => self.int(S, "steps", n, 0, i64::MAX, "a whole number of steps >= 0")?,
+            (Some(n), _) => self.int(
+                S,
+                "steps",
+                n,
+                0,
+                MAX_STEPS as i64,
+                "a whole number of steps from 0 to 1e9",
+            )?,
             (None, true) => 0,
             (None, false) => {
                 return Err(self.bad_table(
