@@ -200,7 +200,15 @@ impl<S: Storage> Scene<S> {
         }
         for (e, tet) in tets.iter().enumerate() {
             let t = oriented(e, tet, positions, options)?;
-            let (_, six_v0) = rest_frame(positions, &t);
+            let (frame, six_v0) = rest_frame(positions, &t);
+            // The 6V-scaled shape-function gradients are products of two
+            // local coordinates: they must not overflow either (an edge of
+            // 1e20 m next to one of 1e19 m), or the rest state is not even an
+            // equilibrium (0 · ∞).
+            let gradients_finite = qr::local_gradients(&frame.local)
+                .iter()
+                .flatten()
+                .all(|g| g.is_finite());
             // Everything the element contributes must be a normal f32 number:
             // its frame (no fallback for an edge whose square over- or
             // underflows), 1/(36 V₀), its share ρ V₀/4 of the lumped mass (a
@@ -209,6 +217,7 @@ impl<S: Storage> Scene<S> {
             let quarter = material.density * six_v0 * (1.0 / 24.0);
             let lame = element_lame(material.young, per_young, six_v0);
             if !(regular_frame(positions, &t)
+                && gradients_finite
                 && six_v0 >= f32::MIN_POSITIVE
                 && six_v0.is_finite()
                 && (1.0 / (6.0 * six_v0)).is_finite()
