@@ -4,61 +4,11 @@
 use std::fs;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
-use std::sync::atomic::{AtomicUsize, Ordering};
 
 use serde_json::Value;
 
-const BIN: &str = env!("CARGO_BIN_EXE_corofem");
-
-/// A fresh, empty folder under the system temp dir (removed on drop).
-struct TempDir(PathBuf);
-
-impl TempDir {
-    fn new(name: &str) -> TempDir {
-        static COUNT: AtomicUsize = AtomicUsize::new(0);
-        let n = COUNT.fetch_add(1, Ordering::Relaxed);
-        let dir = std::env::temp_dir().join(format!(
-            "corofem-cli-test-{}-{n}-{name}",
-            std::process::id()
-        ));
-        let _ = fs::remove_dir_all(&dir);
-        fs::create_dir_all(&dir).unwrap();
-        TempDir(dir)
-    }
-
-    fn path(&self, name: &str) -> PathBuf {
-        self.0.join(name)
-    }
-
-    fn write(&self, name: &str, text: &str) -> PathBuf {
-        let p = self.path(name);
-        fs::write(&p, text).unwrap();
-        p
-    }
-
-    fn files(&self) -> Vec<String> {
-        let mut v: Vec<String> = fs::read_dir(&self.0)
-            .unwrap()
-            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-            .collect();
-        v.sort();
-        v
-    }
-}
-
-impl Drop for TempDir {
-    fn drop(&mut self) {
-        let _ = fs::remove_dir_all(&self.0);
-    }
-}
-
-fn corofem(args: &[&str], cwd: &Path) -> Output {
-    Command::new(BIN)
-        .args(args)
-        .current_dir(cwd)
-        .output()
-        .expect("the corofem binary runs")
-}
+mod common;
+use common::{corofem, TempDir, BIN};
 
 fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
@@ -363,7 +313,7 @@ every = 5
 #[test]
 fn vtk_series_has_a_frame_per_history_record() {
     let dir = TempDir::new("vtk");
-    dir.write("scene.toml", &format!("{BEAM}{DYNAMIC}"));
+    dir.write("scene.toml", format!("{BEAM}{DYNAMIC}"));
     let o = corofem(
         &[
             "run",
@@ -395,7 +345,7 @@ fn vtk_series_has_a_frame_per_history_record() {
 #[test]
 fn stdout_and_default_destinations() {
     let dir = TempDir::new("dest");
-    dir.write("beam.toml", &format!("{BEAM}[solver]\nsteps = 3\n"));
+    dir.write("beam.toml", format!("{BEAM}[solver]\nsteps = 3\n"));
     let o = corofem(&["run", "beam.toml", "--out", "-", "-q"], &dir.0);
     assert!(o.status.success(), "{}", stderr(&o));
     let r: Value = serde_json::from_slice(&o.stdout).unwrap();
@@ -427,7 +377,7 @@ fn one_tet(flip: bool) -> String {
 fn mesh_paths_are_relative_to_the_scene_and_reorient_is_optional() {
     let dir = TempDir::new("relative");
     fs::create_dir_all(dir.path("scenes/meshes")).unwrap();
-    dir.write("scenes/meshes/flipped.tetmesh", &one_tet(true));
+    dir.write("scenes/meshes/flipped.tetmesh", one_tet(true));
     let scene = "[mesh]\nfile = \"meshes/flipped.tetmesh\"\n[solver]\nsteps = 2\n[world]\ngravity = [0.0, 0.0, 0.0]\n";
     dir.write("scenes/s.toml", scene);
     // Run from the parent folder: the mesh is found next to the scene.
@@ -442,7 +392,7 @@ fn mesh_paths_are_relative_to_the_scene_and_reorient_is_optional() {
 
     dir.write(
         "scenes/s.toml",
-        &scene.replace("[solver]", "reorient = true\n[solver]"),
+        scene.replace("[solver]", "reorient = true\n[solver]"),
     );
     let o = corofem(&["run", "scenes/s.toml", "--out", "r.json", "-q"], &dir.0);
     assert!(o.status.success(), "{}", stderr(&o));
@@ -471,7 +421,7 @@ fn unused_nodes_are_dropped_with_a_note() {
 #[test]
 fn info_describes_a_mesh() {
     let dir = TempDir::new("info");
-    dir.write("t.tetmesh", &one_tet(true));
+    dir.write("t.tetmesh", one_tet(true));
     let o = corofem(&["info", "t.tetmesh"], &dir.0);
     assert!(o.status.success(), "{}", stderr(&o));
     let out = String::from_utf8_lossy(&o.stdout);
