@@ -94,7 +94,9 @@ pub(crate) fn solve(
     }
     CgOutcome {
         iterations,
-        residual: sqrt(rz.max(0.0) / rz0),
+        // Square roots first and a clamp: the ratio of a grown residual to a tiny
+        // initial one can exceed f32 (found by fuzzing); the statistic stays finite.
+        residual: (sqrt(rz.max(0.0)) / sqrt(rz0)).min(f32::MAX),
         overflow: !rz.is_finite(),
     }
 }
