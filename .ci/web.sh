@@ -2,7 +2,8 @@
 # The web demo (examples/web): native unit tests, the wasm build, the wasm
 # module's state hash in Node against the host's, and the page in headless
 # Chromium (Debian's package, driven by playwright-core from npm; no tool
-# downloads a browser). Writes docs/web-demo.png. Called by .ci/run; runs
+# downloads a browser). Writes the screenshot to $out/web-demo.png (set
+# COROFEM_WEB_SCREENSHOT=docs/web-demo.png to refresh the README's). Called by .ci/run; runs
 # alone too: `bash .ci/web.sh`. About a minute when everything is installed.
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
@@ -49,7 +50,7 @@ node --test test/hash.test.mjs
 
 echo "== web: the page in headless Chromium"
 COROFEM_WEB_URL="http://127.0.0.1:$port/" \
-COROFEM_WEB_SCREENSHOT="$root/docs/web-demo.png" \
+COROFEM_WEB_SCREENSHOT="${COROFEM_WEB_SCREENSHOT:-$out/web-demo.png}" \
 COROFEM_WEB_TIMING="$out/browser-timing.json" \
   node --test test/browser.test.mjs
 
