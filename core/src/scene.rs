@@ -31,6 +31,9 @@ pub(crate) struct Header {
     pub(crate) settings: Settings,
     pub(crate) time: f64,
     pub(crate) inverted: u32,
+    /// Some node is fixed (kept by `fix_nodes`/`unfix_all` so the step need
+    /// not scan the flags).
+    pub(crate) any_fixed: bool,
     #[cfg(feature = "ground")]
     pub(crate) ground: Option<Plane>,
     #[cfg(feature = "tool")]
@@ -46,6 +49,7 @@ impl Header {
         settings: Settings::new(),
         time: 0.0,
         inverted: 0,
+        any_fixed: false,
         #[cfg(feature = "ground")]
         ground: None,
         #[cfg(feature = "tool")]
@@ -288,6 +292,7 @@ impl<S: Storage> Scene<S> {
         self.hdr.density = material.density;
         self.hdr.time = 0.0;
         self.hdr.inverted = 0;
+        self.hdr.any_fixed = false;
         #[cfg(feature = "tool")]
         {
             self.hdr.tool = ToolState::NONE;
@@ -481,6 +486,7 @@ impl<S: Storage> Scene<S> {
         for &i in nodes {
             if let Some(n) = v.nodes.get_mut(i as usize) {
                 n.flags |= FIXED;
+                v.hdr.any_fixed = true;
                 n.v = [0.0; 3];
             }
         }
@@ -489,9 +495,11 @@ impl<S: Storage> Scene<S> {
 
     /// Frees every fixed node.
     pub fn unfix_all(&mut self) {
-        for n in self.view().nodes.iter_mut() {
+        let v = self.view();
+        for n in v.nodes.iter_mut() {
             n.flags &= !FIXED;
         }
+        v.hdr.any_fixed = false;
     }
 
     /// Sets the constant external force on node `i` (N).

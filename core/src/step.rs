@@ -67,7 +67,7 @@ pub(crate) fn step(v: View<'_>) -> Result<StepStats, StepError> {
     // bit, since every element sees equal node values), so when no node is
     // fixed we start from the free-fall change `c = h g / (1 + h α_M)` and CG
     // only has the rest to do. Fixed bodies start from zero (or the warm start).
-    let any_fixed = nodes.iter().any(|n| n.flags & FIXED != 0);
+    let any_fixed = hdr.any_fixed;
     let fall = if any_fixed {
         [0.0; 3]
     } else {
