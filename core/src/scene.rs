@@ -206,20 +206,29 @@ impl<S: Storage> Scene<S> {
             let t = oriented(e, tet, positions, options)?;
             let (frame, six_v0) = rest_frame(positions, &t);
             // The 6V-scaled shape-function gradients are products of two
-            // local coordinates: they must not overflow either (an edge of
-            // 1e20 m next to one of 1e19 m), or the rest state is not even an
-            // equilibrium (0 · ∞).
-            let gradients_finite = qr::local_gradients(&frame.local)
-                .iter()
-                .flatten()
-                .all(|g| g.is_finite());
+            // local coordinates, and their world versions sums of three such
+            // products: they must not overflow (an edge of 1e20 m next to one
+            // of 1e19 m; or 1e38 m next to a sliver, found by fuzzing), or
+            // the rest state is not even an equilibrium (0 · ∞). Check them
+            // as the step will compute them: with the step's own kernel.
+            let lame = element_lame(material.young, per_young, six_v0);
+            let gradients_finite = qr::forces::<true>(
+                edge(positions, &t, 1),
+                edge(positions, &t, 2),
+                edge(positions, &t, 3),
+                &frame.local,
+                lame,
+            )
+            .grad
+            .iter()
+            .flatten()
+            .all(|g| g.is_finite());
             // Everything the element contributes must be a normal f32 number:
             // its frame (no fallback for an edge whose square over- or
             // underflows), 1/(36 V₀), its share ρ V₀/4 of the lumped mass (a
             // subnormal mass makes the preconditioner 1/m infinite) and its
             // Lamé coefficients E/(36 V₀).
             let quarter = material.density * six_v0 * (1.0 / 24.0);
-            let lame = element_lame(material.young, per_young, six_v0);
             if !(regular_frame(positions, &t)
                 && gradients_finite
                 && six_v0 >= f32::MIN_POSITIVE

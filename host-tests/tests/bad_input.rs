@@ -377,15 +377,36 @@ fn regression_element_with_overflowing_gradients_is_refused() {
         poisson: 0.0,
         density: 0.0125,
     };
+    refused_or_rest_is_equilibrium(&nodes, [3, 0, 2, 1], &material);
+}
+
+/// Found by the CI fuzz run after the fix above: a sliver with one node at
+/// z = f32::MAX had finite local gradients, but its world gradients `Rᵀ(β,
+/// γ, δ)` (sums of three products near f32::MAX) overflowed, and again the
+/// first step from rest diverged. `build` now checks the gradients the step's
+/// own kernel computes.
+#[test]
+fn regression_element_with_overflowing_world_gradients_is_refused() {
+    let nodes = [
+        [-1.1563734e-15, 215657140.0, 3.4028235e38],
+        [2.3011998e-30, -0.2731, -0.0013020833],
+        [1.0, -1.0, -1.0],
+        [0.0, 0.0, -2.1896627e-5],
+    ];
+    let material = Material {
+        young: 618750000.0,
+        poisson: 0.49804688,
+        density: 0.896875,
+    };
+    refused_or_rest_is_equilibrium(&nodes, [3, 1, 2, 0], &material);
+}
+
+/// Building the single tetrahedron either fails with an error naming it, or
+/// gives a rest state that one step leaves exactly where it is.
+fn refused_or_rest_is_equilibrium(nodes: &[[f32; 3]], tet: [u32; 4], material: &Material) {
     for reorient in [false, true] {
         let mut s = Small::new();
-        let r = s.build(
-            &nodes,
-            &[[3, 0, 2, 1]],
-            &material,
-            BuildOptions { reorient },
-        );
-        match r {
+        match s.build(nodes, &[tet], material, BuildOptions { reorient }) {
             Err(e) => assert!(
                 matches!(
                     e,
