@@ -536,6 +536,15 @@ impl<S: Storage> Scene<S> {
     pub fn set_positions(&mut self, positions: &[Vec3]) -> Result<(), Error> {
         let v = self.view();
         check_field(positions, v.nodes.len(), "positions")?;
+        // The displacement p − x₀ must be finite too (both near f32::MAX).
+        if !v
+            .nodes
+            .iter()
+            .zip(positions)
+            .all(|(n, p)| is_finite3(sub(*p, n.x0)))
+        {
+            return Err(Error::InvalidParameter { name: "positions" });
+        }
         for (n, p) in v.nodes.iter_mut().zip(positions) {
             n.u = sub(*p, n.x0);
         }
@@ -546,6 +555,17 @@ impl<S: Storage> Scene<S> {
     pub fn set_displacements(&mut self, displacements: &[Vec3]) -> Result<(), Error> {
         let v = self.view();
         check_field(displacements, v.nodes.len(), "displacements")?;
+        // The position x₀ + u must be finite too.
+        if !v
+            .nodes
+            .iter()
+            .zip(displacements)
+            .all(|(n, u)| is_finite3(crate::math::add(n.x0, *u)))
+        {
+            return Err(Error::InvalidParameter {
+                name: "displacements",
+            });
+        }
         for (n, u) in v.nodes.iter_mut().zip(displacements) {
             n.u = *u;
         }

@@ -181,7 +181,7 @@ impl<S: Storage> Scene<S> {
                     || !nodes
                         .iter()
                         .zip(work.iter())
-                        .all(|(n, w)| is_finite3(add(n.u, w.x)))
+                        .all(|(n, w)| is_finite3(add(n.x0, add(n.u, w.x))))
                 {
                     return Err(Error::StaticDiverged);
                 }

@@ -206,7 +206,10 @@ pub(crate) fn step(v: View<'_>) -> Result<StepStats, StepError> {
                 scale(sub(add(n.x0, u), tool.anchor(n.grab)), tool.k_node),
             );
         }
-        ok &= is_finite3(u) && is_finite3(v);
+        // The position x₀ + u is what a user reads: it must be finite too
+        // (a node near f32::MAX plus a finite displacement can overflow,
+        // found by fuzzing). A finite sum implies a finite u.
+        ok &= is_finite3(add(n.x0, u)) && is_finite3(v);
         w.d = u;
         w.q = v;
     }

@@ -427,3 +427,43 @@ fn refused_or_rest_is_equilibrium(nodes: &[[f32; 3]], tet: [u32; 4], material: &
         }
     }
 }
+
+/// Found by the CI fuzz run: a node at z = f32::MAX whose displacement stays
+/// finite under an absurd gravity (2.7e36 m/s²) while its position `x₀ + u`
+/// overflows. The step used to check only `u`; it now refuses a step whose
+/// positions are not finite and leaves the state unchanged.
+#[test]
+fn regression_step_whose_position_overflows_is_refused() {
+    let nodes = [
+        [-1.1563734e-15, 215657140.0, 3.4028235e38],
+        [2.302e-30, -0.2731, 7.17e-43],
+        [0.0, 0.0, 0.0],
+        [0.0, 0.0, -2.1896627e-5],
+    ];
+    let material = Material {
+        young: 618750000.0,
+        poisson: 0.49804688,
+        density: 8968.75,
+    };
+    let mut s = Small::new();
+    s.build(&nodes, &[[3, 1, 2, 0]], &material, BuildOptions::default())
+        .unwrap();
+    s.set_settings(Settings {
+        method: corofem::Method::Linear,
+        dt: 0.0061875004,
+        cg_iterations: 7,
+        gravity: [-7.668923e-16, -3.0316488e-13, 2.655521e36],
+        ..Settings::default()
+    })
+    .unwrap();
+    for _ in 0..4 {
+        let before = s.state_hash();
+        match s.step() {
+            Ok(_) => assert!(s.positions().flatten().all(f32::is_finite)),
+            Err(e) => {
+                assert_eq!(e, StepError::Diverged);
+                assert_eq!(s.state_hash(), before, "a refused step changed the state");
+            }
+        }
+    }
+}
