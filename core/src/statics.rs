@@ -159,10 +159,8 @@ impl<S: Storage> Scene<S> {
             };
             if !last.converged {
                 let apply = |work: &mut [NodeWork]| {
-                    for w in work.iter_mut() {
-                        w.q = [0.0; 3];
-                    }
                     pass::stiffness(elems, work);
+                    let mut dq = 0.0f32;
                     for (_n, w) in nodes.iter().zip(work.iter_mut()) {
                         // K d = −(−K d), plus the tool spring.
                         #[allow(unused_mut)] // only the tool adds to it
@@ -172,7 +170,9 @@ impl<S: Storage> Scene<S> {
                             q = axpy(q, tool.k_node, w.d);
                         }
                         w.q = q;
+                        dq += dot(w.d, q);
                     }
+                    dq
                 };
                 let out = cg::solve(work, cfg.cg_iterations, cfg.cg_tolerance, |_, z| z, apply);
                 last.cg_iterations = out.iterations;

@@ -138,12 +138,11 @@ pub(crate) fn step(v: View<'_>) -> Result<StepStats, StepError> {
     // A uniform guess needs no element pass for `r = b − A x₀`.
     let uniform = isolated && !s.warm_start;
 
-    // A d = (1 + h α_M) M d + h (α_K + h) K d (+ h² k/n d on grabbed nodes).
+    // A d = (1 + h α_M) M d + h (α_K + h) K d (+ h² k/n d on grabbed nodes),
+    // into q = 0; returns dᵀ A d.
     let apply = |work: &mut [NodeWork]| {
-        for w in work.iter_mut() {
-            w.q = [0.0; 3];
-        }
         pass::stiffness(elems, work);
+        let mut dq = 0.0f32;
         for (n, w) in nodes.iter().zip(work.iter_mut()) {
             #[allow(unused_mut)] // only the tool adds to it
             let mut p = mass_coef * n.mass;
@@ -152,7 +151,9 @@ pub(crate) fn step(v: View<'_>) -> Result<StepStats, StepError> {
                 p += h * h * tool.k_node;
             }
             w.q = axpy(scale(w.d, p), -k_coef, w.q);
+            dq += dot(w.d, w.q);
         }
+        dq
     };
     let project = |i: usize, z: Vec3| -> Vec3 {
         #[cfg(feature = "ground")]
@@ -173,6 +174,7 @@ pub(crate) fn step(v: View<'_>) -> Result<StepStats, StepError> {
         // r = b − A x₀.
         for w in work.iter_mut() {
             w.d = w.x;
+            w.q = [0.0; 3];
         }
         apply(work);
         for w in work.iter_mut() {
