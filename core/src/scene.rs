@@ -212,17 +212,10 @@ impl<S: Storage> Scene<S> {
             // the rest state is not even an equilibrium (0 · ∞). Check them
             // as the step will compute them: with the step's own kernel.
             let lame = element_lame(material.young, per_young, six_v0);
-            let gradients_finite = qr::forces::<true>(
-                edge(positions, &t, 1),
-                edge(positions, &t, 2),
-                edge(positions, &t, 3),
-                &frame.local,
-                lame,
-            )
-            .grad
-            .iter()
-            .flatten()
-            .all(|g| g.is_finite());
+            let gradients_finite = rest_gradients(positions, &t, &frame, lame)
+                .iter()
+                .flatten()
+                .all(|g| g.is_finite());
             // Everything the element contributes must be a normal f32 number:
             // its frame (no fallback for an edge whose square over- or
             // underflows), 1/(36 V₀), its share ρ V₀/4 of the lumped mass (a
@@ -269,22 +262,15 @@ impl<S: Storage> Scene<S> {
             let t = oriented(e, tet, positions, options).unwrap_or([0; 4]);
             let (frame, six_v0) = rest_frame(positions, &t);
             let lame = element_lame(material.young, per_young, six_v0);
-            // Rest world gradients from the same kernel as the step.
-            let rest_out = qr::forces::<true>(
-                edge(positions, &t, 1),
-                edge(positions, &t, 2),
-                edge(positions, &t, 3),
-                &frame.local,
-                lame,
-            );
+            let grad = rest_gradients(positions, &t, &frame, lame);
             *slot = Element {
                 nodes: [t[0] as u16, t[1] as u16, t[2] as u16, t[3] as u16],
                 rest: frame.local,
                 young: material.young,
                 lame,
-                grad: rest_out.grad,
+                grad,
                 #[cfg(any(feature = "polar", feature = "linear"))]
-                rest_grad: rest_out.grad,
+                rest_grad: grad,
                 #[cfg(feature = "polar")]
                 rot: crate::element::polar::IDENTITY,
             };
@@ -680,6 +666,24 @@ fn regular_frame(positions: &[Vec3], t: &[u32; 4]) -> bool {
         Some(e1) => regular(ab) && regular(crate::math::cross(e1, edge(positions, t, 2))),
         None => false,
     }
+}
+
+/// World gradients (m², 6V₀-scaled) of the rest shape, computed by the step's
+/// own kernel so that the rest shape is an exact equilibrium in f32.
+fn rest_gradients(
+    positions: &[Vec3],
+    t: &[u32; 4],
+    frame: &qr::Frame,
+    lame: [f32; 2],
+) -> [Vec3; 3] {
+    qr::forces::<true>(
+        edge(positions, t, 1),
+        edge(positions, t, 2),
+        edge(positions, t, 3),
+        &frame.local,
+        lame,
+    )
+    .grad
 }
 
 /// QR frame of the rest shape and `6V₀ = xb·yc·zd` (m³).
