@@ -92,4 +92,15 @@ pub struct StepStats {
     /// Force the body exerts on the tool at the end of the step (N): what a
     /// haptic device renders. Zero without a tool.
     pub tool_force: Vec3,
+    /// Elastic energy of the body at the start of the step (J), summed in
+    /// element order by the force pass (no extra work). `Qr`'s forces are not
+    /// the gradient of an energy: with many inverted elements and light
+    /// damping they can feed energy in while every value stays finite
+    /// (docs/reliability.md). Energy that grows while nothing does work on
+    /// the body is the signal to switch to `Polar` or add stiffness damping.
+    /// Feature `diagnostics`: summing it costs ~60 instructions per element
+    /// and step on a Cortex-M4F (3.5%), which a firmware image that does not
+    /// read it should not pay.
+    #[cfg(feature = "diagnostics")]
+    pub elastic_energy: f32,
 }

@@ -237,6 +237,8 @@ pub(crate) fn step(v: View<'_>) -> Result<StepStats, StepError> {
         inverted: totals.inverted,
         contacts: held,
         tool_force,
+        #[cfg(feature = "diagnostics")]
+        elastic_energy: totals.energy,
     })
 }
 

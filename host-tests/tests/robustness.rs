@@ -92,6 +92,9 @@ fn liver_pulled_until_elements_invert_recovers_after_release() {
         for step in 0..400 {
             let t = (step + 1) as f32 * settings.dt;
             let pull = 12.0 * t.min(0.5);
+            // The step reports the energy its force pass summed: the same
+            // bits as the diagnostics' separate pass over the same state.
+            let energy = scene.elastic_energy();
             let stats = scene
                 .step_haptic([
                     start[0] + pull,
@@ -99,6 +102,11 @@ fn liver_pulled_until_elements_invert_recovers_after_release() {
                     start[2] + 0.5 * pull,
                 ])
                 .unwrap();
+            assert_eq!(
+                stats.elastic_energy.to_bits(),
+                energy.to_bits(),
+                "step {step}"
+            );
             max_inverted = max_inverted.max(stats.inverted);
             max_force = max_force.max(f64v::norm(f64v::up(stats.tool_force)));
         }
