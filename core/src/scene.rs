@@ -3,7 +3,7 @@
 use crate::element::{qr, Element, Method};
 use crate::error::{Error, StepError};
 use crate::material::{element_lame, lame_per_young, validate_poisson, validate_young, Material};
-use crate::math::{det3, is_finite3, sub, Vec3};
+use crate::math::{add, det3, is_finite3, sub, Vec3};
 use crate::settings::{Settings, StepStats};
 use crate::storage::{ArrayStorage, Node, NodeWork, Storage, FIXED};
 
@@ -519,39 +519,23 @@ impl<S: Storage> Scene<S> {
     }
 
     /// Sets all current positions (m); displacements follow as position − rest.
+    /// A position, or the displacement it implies, that is not finite is an
+    /// [`Error::InvalidParameter`] and leaves the scene unchanged.
     pub fn set_positions(&mut self, positions: &[Vec3]) -> Result<(), Error> {
         let v = self.view();
-        check_field(positions, v.nodes.len(), "positions")?;
-        // The displacement p − x₀ must be finite too (both near f32::MAX).
-        if !v
-            .nodes
-            .iter()
-            .zip(positions)
-            .all(|(n, p)| is_finite3(sub(*p, n.x0)))
-        {
-            return Err(Error::InvalidParameter { name: "positions" });
-        }
+        check_field(positions, v.nodes, "positions", |x0, p| sub(p, x0))?;
         for (n, p) in v.nodes.iter_mut().zip(positions) {
             n.u = sub(*p, n.x0);
         }
         Ok(())
     }
 
-    /// Sets all displacements from rest (m).
+    /// Sets all displacements from rest (m). A displacement, or the position
+    /// it implies, that is not finite is an [`Error::InvalidParameter`] and
+    /// leaves the scene unchanged.
     pub fn set_displacements(&mut self, displacements: &[Vec3]) -> Result<(), Error> {
         let v = self.view();
-        check_field(displacements, v.nodes.len(), "displacements")?;
-        // The position x₀ + u must be finite too.
-        if !v
-            .nodes
-            .iter()
-            .zip(displacements)
-            .all(|(n, u)| is_finite3(crate::math::add(n.x0, *u)))
-        {
-            return Err(Error::InvalidParameter {
-                name: "displacements",
-            });
-        }
+        check_field(displacements, v.nodes, "displacements", add)?;
         for (n, u) in v.nodes.iter_mut().zip(displacements) {
             n.u = *u;
         }
@@ -561,7 +545,7 @@ impl<S: Storage> Scene<S> {
     /// Sets all velocities (m/s). Fixed nodes keep zero velocity.
     pub fn set_velocities(&mut self, velocities: &[Vec3]) -> Result<(), Error> {
         let v = self.view();
-        check_field(velocities, v.nodes.len(), "velocities")?;
+        check_field(velocities, v.nodes, "velocities", |_, vel| vel)?;
         for (n, vel) in v.nodes.iter_mut().zip(velocities) {
             n.v = if n.flags & FIXED != 0 { [0.0; 3] } else { *vel };
         }
@@ -704,8 +688,16 @@ fn check_nodes(nodes: &[u32], n: usize) -> Result<(), Error> {
     }
 }
 
-fn check_field(values: &[Vec3], n: usize, name: &'static str) -> Result<(), Error> {
-    if values.len() != n || !values.iter().all(|v| is_finite3(*v)) {
+/// `values` has one entry per node, and each entry and the quantity it
+/// implies, `implied(x₀, value)` (a position or a displacement), is finite.
+fn check_field(
+    values: &[Vec3],
+    nodes: &[Node],
+    name: &'static str,
+    implied: impl Fn(Vec3, Vec3) -> Vec3,
+) -> Result<(), Error> {
+    let finite = |(n, v): (&Node, &Vec3)| is_finite3(*v) && is_finite3(implied(n.x0, *v));
+    if values.len() != nodes.len() || !nodes.iter().zip(values).all(finite) {
         return Err(Error::InvalidParameter { name });
     }
     Ok(())

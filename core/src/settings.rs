@@ -93,7 +93,8 @@ pub struct StepStats {
     /// haptic device renders. Zero without a tool.
     pub tool_force: Vec3,
     /// Elastic energy of the body at the start of the step (J), summed in
-    /// element order by the force pass (no extra work). `Qr`'s forces are not
+    /// element order by the force pass that computes the forces anyway (no
+    /// extra pass over the elements). `Qr`'s forces are not
     /// the gradient of an energy: with many inverted elements and light
     /// damping they can feed energy in while every value stays finite
     /// (docs/reliability.md). Energy that grows while nothing does work on

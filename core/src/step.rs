@@ -200,18 +200,16 @@ pub(crate) fn step(v: View<'_>) -> Result<StepStats, StepError> {
             Some(g) => g.project(n.x0, u, v),
             None => (u, v),
         };
-        #[cfg(feature = "tool")]
-        if n.flags & GRABBED != 0 && tool.active() {
-            // The body pulls the tool with minus the spring force.
-            tool_force = add(
-                tool_force,
-                scale(sub(add(n.x0, u), tool.anchor(n.grab)), tool.k_node),
-            );
-        }
         // The position x₀ + u is what a user reads: it must be finite too
         // (a node near f32::MAX plus a finite displacement can overflow,
         // found by fuzzing). A finite sum implies a finite u.
-        ok &= is_finite3(add(n.x0, u)) && is_finite3(v);
+        let x = add(n.x0, u);
+        #[cfg(feature = "tool")]
+        if n.flags & GRABBED != 0 && tool.active() {
+            // The body pulls the tool with minus the spring force.
+            tool_force = add(tool_force, scale(sub(x, tool.anchor(n.grab)), tool.k_node));
+        }
+        ok &= is_finite3(x) && is_finite3(v);
         w.d = u;
         w.q = v;
     }

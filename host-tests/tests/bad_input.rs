@@ -428,12 +428,10 @@ fn refused_or_rest_is_equilibrium(nodes: &[[f32; 3]], tet: [u32; 4], material: &
     }
 }
 
-/// Found by the CI fuzz run: a node at z = f32::MAX whose displacement stays
-/// finite under an absurd gravity (2.7e36 m/s²) while its position `x₀ + u`
-/// overflows. The step used to check only `u`; it now refuses a step whose
-/// positions are not finite and leaves the state unchanged.
-#[test]
-fn regression_step_whose_position_overflows_is_refused() {
+/// A built tetrahedron whose node 0 sits at z = f32::MAX: `build` accepts it
+/// (its frame is regular: the far node is `d`), so positions and
+/// displacements near the top of f32 are reachable.
+fn far_node_scene() -> Small {
     let nodes = [
         [-1.1563734e-15, 215657140.0, 3.4028235e38],
         [2.302e-30, -0.2731, 7.17e-43],
@@ -448,6 +446,16 @@ fn regression_step_whose_position_overflows_is_refused() {
     let mut s = Small::new();
     s.build(&nodes, &[[3, 1, 2, 0]], &material, BuildOptions::default())
         .unwrap();
+    s
+}
+
+/// Found by the CI fuzz run: a node at z = f32::MAX whose displacement stays
+/// finite under an absurd gravity (2.7e36 m/s²) while its position `x₀ + u`
+/// overflows. The step used to check only `u` and applied it; it now refuses
+/// the step and leaves the state unchanged.
+#[test]
+fn regression_step_whose_position_overflows_is_refused() {
+    let mut s = far_node_scene();
     s.set_settings(Settings {
         method: corofem::Method::Linear,
         dt: 0.0061875004,
@@ -456,6 +464,7 @@ fn regression_step_whose_position_overflows_is_refused() {
         ..Settings::default()
     })
     .unwrap();
+    let mut refused = 0;
     for _ in 0..4 {
         let before = s.state_hash();
         match s.step() {
@@ -463,7 +472,38 @@ fn regression_step_whose_position_overflows_is_refused() {
             Err(e) => {
                 assert_eq!(e, StepError::Diverged);
                 assert_eq!(s.state_hash(), before, "a refused step changed the state");
+                refused += 1;
             }
         }
     }
+    // Without the check the first step was applied with an infinite position.
+    assert!(refused > 0, "the overflowing step was not refused");
+}
+
+/// The setters check what they imply: a finite position whose displacement
+/// `p − x₀` overflows, or a finite displacement whose position `x₀ + u`
+/// overflows, is refused with the scene unchanged.
+#[test]
+fn setters_refuse_values_whose_position_or_displacement_overflows() {
+    let mut s = far_node_scene();
+    let before = s.state_hash();
+    let mut positions: Vec<[f32; 3]> = s.positions().collect();
+    positions[0][2] = -f32::MAX; // −MAX − x₀ = −2 MAX: overflows
+    assert_eq!(
+        s.set_positions(&positions),
+        Err(Error::InvalidParameter { name: "positions" })
+    );
+    let mut displacements = vec![[0.0f32; 3]; 4];
+    displacements[0][2] = f32::MAX; // x₀ + MAX = 2 MAX: overflows
+    assert_eq!(
+        s.set_displacements(&displacements),
+        Err(Error::InvalidParameter {
+            name: "displacements"
+        })
+    );
+    assert_eq!(s.state_hash(), before);
+    // Large but representable values are accepted.
+    displacements[0][2] = -f32::MAX;
+    assert_eq!(s.set_displacements(&displacements), Ok(()));
+    assert!(s.positions().flatten().all(f32::is_finite));
 }
