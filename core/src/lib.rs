@@ -69,10 +69,10 @@
 //! | `fpu-sqrt` | square root with the FPU's `vsqrt.f32` on bare-metal Arm hard-float targets (Cortex-M4F/M7), bit-identical to `libm` |
 //! | `defmt` | `defmt::Format` on public types |
 #![no_std]
-// No unsafe code, except the single FPU instruction behind `fpu-sqrt`
-// (math.rs), which is allowed there and nowhere else.
-#![cfg_attr(not(feature = "fpu-sqrt"), forbid(unsafe_code))]
-#![cfg_attr(feature = "fpu-sqrt", deny(unsafe_code))]
+// No unsafe code, except the square root instruction (math.rs: SSE's
+// `sqrtss` intrinsic on x86, the FPU's `vsqrt.f32` behind `fpu-sqrt`), which
+// is allowed there and nowhere else.
+#![deny(unsafe_code)]
 #![warn(missing_docs)]
 #![cfg_attr(docsrs, feature(doc_cfg))]
 // `!(x > 0.0)` is the NaN-safe way to reject a value: it is true for NaN,
@@ -82,6 +82,8 @@
 mod cg;
 mod element;
 mod error;
+#[cfg(any(feature = "qr", feature = "qr-rest-b"))]
+mod lanes;
 mod material;
 mod math;
 mod mesh_gen;

@@ -15,17 +15,17 @@
 //! order `[εxx, εyy, εzz, γxy, γyz, γzx]` is `(H₀₀, H₁₁, H₂₂, H₀₁+H₁₀, H₁₂+H₂₁,
 //! H₂₀+H₀₂)` and `Bᵢᵀ σ_Voigt = σ gᵢ`. About 27 + 27 + 7 multiplications.
 
-use crate::math::{sub, Vec3};
+use crate::math::{sub, Real};
 
 /// A symmetric 3×3 stress `[sxx, syy, szz, sxy, syz, szx]` (scaled as above).
-pub(crate) type Sym = [f32; 6];
+pub(crate) type Sym<T = f32> = [T; 6];
 
 /// `H = Σᵢ dᵢ gᵢᵀ` for the three edge vectors `d` and gradients `g` (rows of H
 /// are components of `d`).
 #[inline(always)]
 #[must_use]
-pub(crate) fn grad_h(d: &[Vec3; 3], g: &[Vec3; 3]) -> [[f32; 3]; 3] {
-    let mut h = [[0.0f32; 3]; 3];
+pub(crate) fn grad_h<T: Real>(d: &[[T; 3]; 3], g: &[[T; 3]; 3]) -> [[T; 3]; 3] {
+    let mut h = [[T::splat(0.0); 3]; 3];
     for (r, row) in h.iter_mut().enumerate() {
         for (c, hrc) in row.iter_mut().enumerate() {
             *hrc = d[0][r] * g[0][c] + d[1][r] * g[1][c] + d[2][r] * g[2][c];
@@ -38,7 +38,7 @@ pub(crate) fn grad_h(d: &[Vec3; 3], g: &[Vec3; 3]) -> [[f32; 3]; 3] {
 /// `σ = λ' tr(H) I + μ' (H + Hᵀ)`, with `lame = [λ', μ']`.
 #[inline(always)]
 #[must_use]
-pub(crate) fn stress(h: &[[f32; 3]; 3], lame: [f32; 2]) -> Sym {
+pub(crate) fn stress<T: Real>(h: &[[T; 3]; 3], lame: [T; 2]) -> Sym<T> {
     let [l, m] = lame;
     let lt = l * (h[0][0] + h[1][1] + h[2][2]);
     let m2 = m + m;
@@ -55,7 +55,7 @@ pub(crate) fn stress(h: &[[f32; 3]; 3], lame: [f32; 2]) -> Sym {
 /// `−σ g` for a symmetric `σ`.
 #[inline(always)]
 #[must_use]
-pub(crate) fn neg_stress_times(s: &Sym, g: Vec3) -> Vec3 {
+pub(crate) fn neg_stress_times<T: Real>(s: &Sym<T>, g: [T; 3]) -> [T; 3] {
     [
         -(s[0] * g[0] + s[3] * g[1] + s[5] * g[2]),
         -(s[3] * g[0] + s[1] * g[1] + s[4] * g[2]),
@@ -82,7 +82,11 @@ pub(crate) fn energy(s: &Sym, h: &[[f32; 3]; 3]) -> f32 {
 /// Returns the contributions to `b, c, d`; node `a` gets minus their sum.
 #[inline(always)]
 #[must_use]
-pub(crate) fn stiffness_product(x: &[Vec3; 4], g: &[Vec3; 3], lame: [f32; 2]) -> [Vec3; 3] {
+pub(crate) fn stiffness_product<T: Real>(
+    x: &[[T; 3]; 4],
+    g: &[[T; 3]; 3],
+    lame: [T; 2],
+) -> [[T; 3]; 3] {
     let d = [sub(x[1], x[0]), sub(x[2], x[0]), sub(x[3], x[0])];
     let s = stress(&grad_h(&d, g), lame);
     [

@@ -11,18 +11,52 @@
 //! with `xb > 0`, `yc ≥ 0`, and `6V = xb·yc·zd`: the element is inverted
 //! exactly when `zd < 0`.
 
-use super::hform::Sym;
 use super::ElementForces;
-use crate::math::{cross, dot, normalize, scale, Vec3};
+use crate::math::{cross, dot, normalize, scale, Real, Vec3};
 
 /// Local coordinates `[xb, xc, yc, xd, yd, zd]` of `b, c, d` in the QR frame, m.
-pub(crate) type Local = [f32; 6];
+pub(crate) type Local<T = f32> = [T; 6];
 
-/// The QR frame (rows `e1, e2, e3`) and the local coordinates of one element.
+/// The QR frame (rows `e1, e2, e3`) and the local coordinates of one element
+/// (or of one element per lane).
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct Frame {
-    pub(crate) e: [Vec3; 3],
-    pub(crate) local: Local,
+pub(crate) struct Frame<T = f32> {
+    pub(crate) e: [[T; 3]; 3],
+    pub(crate) local: Local<T>,
+}
+
+/// The frame of a regular element, without fallbacks, and the squared lengths
+/// `|ab|²` and `|e1 × ac|²` it divided by: the frame is the one [`frame`]
+/// returns exactly when both are [`regular`].
+#[inline(always)]
+#[must_use]
+pub(crate) fn frame_regular<T: Real>(ab: [T; 3], ac: [T; 3], ad: [T; 3]) -> (Frame<T>, [T; 2]) {
+    let one = T::splat(1.0);
+    let n1 = dot(ab, ab);
+    let e1 = scale(ab, one / n1.root());
+    let c = cross(e1, ac);
+    let n3 = dot(c, c);
+    let e3 = scale(c, one / n3.root());
+    let e2 = cross(e3, e1);
+    let fr = Frame {
+        e: [e1, e2, e3],
+        local: [
+            dot(e1, ab),
+            dot(e1, ac),
+            dot(e2, ac),
+            dot(e1, ad),
+            dot(e2, ad),
+            dot(e3, ad),
+        ],
+    };
+    (fr, [n1, n3])
+}
+
+/// A squared length that [`normalize`] divides by: normal and finite.
+#[inline(always)]
+#[must_use]
+pub(crate) fn regular(n2: f32) -> bool {
+    n2 >= f32::MIN_POSITIVE && n2.is_finite()
 }
 
 /// Builds the QR frame of the edges `ab, ac, ad` (m).
@@ -33,6 +67,10 @@ pub(crate) struct Frame {
 #[inline(always)]
 #[must_use]
 pub(crate) fn frame(ab: Vec3, ac: Vec3, ad: Vec3) -> Frame {
+    let (fr, [n1, n3]) = frame_regular(ab, ac, ad);
+    if regular(n1) && regular(n3) {
+        return fr;
+    }
     let e1 = match normalize(ab) {
         Some(e) => e,
         None => normalize(ac).unwrap_or([1.0, 0.0, 0.0]),
@@ -86,13 +124,25 @@ fn any_perpendicular(e: Vec3) -> Vec3 {
 /// ```
 #[inline(always)]
 #[must_use]
-pub(crate) fn local_gradients(l: &Local) -> [Vec3; 3] {
+pub(crate) fn local_gradients<T: Real>(l: &Local<T>) -> [[T; 3]; 3] {
     let [xb, xc, yc, xd, yd, zd] = *l;
+    let zero = T::splat(0.0);
     [
         [yc * zd, -(xc * zd), xc * yd - yc * xd],
-        [0.0, xb * zd, -(xb * yd)],
-        [0.0, 0.0, xb * yc],
+        [zero, xb * zd, -(xb * yd)],
+        [zero, zero, xb * yc],
     ]
+}
+
+/// Forces, gradients and energy of an element (or of one element per lane).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Kernel<T> {
+    /// World forces on `b, c, d` (N).
+    pub(crate) f: [[T; 3]; 3],
+    /// World gradients of `b, c, d`, scaled by `6V₀` (m²).
+    pub(crate) grad: [[T; 3]; 3],
+    /// Elastic energy (J).
+    pub(crate) energy: T,
 }
 
 /// Element forces with the QR frame. `rest` holds the rest local coordinates
@@ -102,9 +152,6 @@ pub(crate) fn local_gradients(l: &Local) -> [Vec3; 3] {
 /// With `CURRENT_B = true` (`Qr`) the gradients come from the current shape,
 /// which makes the net torque vanish; with `false` (`QrRestB`, SOFA's default)
 /// they are frozen at rest and ghost torques appear.
-///
-/// Flops: frame ≈ 30, gradients 7, strain 10, stress 7, local forces 18,
-/// rotation to world 27, world gradients 18.
 #[inline(always)]
 #[must_use]
 pub(crate) fn forces<const CURRENT_B: bool>(
@@ -115,6 +162,39 @@ pub(crate) fn forces<const CURRENT_B: bool>(
     lame: [f32; 2],
 ) -> ElementForces {
     let fr = frame(ab, ac, ad);
+    let k = in_frame::<f32, CURRENT_B>(&fr, rest, lame);
+    ElementForces {
+        f: k.f,
+        grad: k.grad,
+        energy: k.energy,
+        inverted: fr.local[5] < 0.0,
+    }
+}
+
+/// `Rᵀ f = fx e1 + fy e2 + fz e3` for the frame rows `e`.
+#[inline(always)]
+#[must_use]
+fn to_world<T: Real>(e: &[[T; 3]; 3], f: [T; 3]) -> [T; 3] {
+    let [e1, e2, e3] = e;
+    [
+        f[0] * e1[0] + f[1] * e2[0] + f[2] * e3[0],
+        f[0] * e1[1] + f[1] * e2[1] + f[2] * e3[1],
+        f[0] * e1[2] + f[1] * e2[2] + f[2] * e3[2],
+    ]
+}
+
+/// The QR kernel once the frame is known (the frame's local coordinates are
+/// the current shape).
+///
+/// Flops: frame ≈ 30, gradients 7, strain 10, stress 7, local forces 18,
+/// rotation to world 27, world gradients 18.
+#[inline(always)]
+#[must_use]
+pub(crate) fn in_frame<T: Real, const CURRENT_B: bool>(
+    fr: &Frame<T>,
+    rest: &Local<T>,
+    lame: [T; 2],
+) -> Kernel<T> {
     let l = fr.local;
     // Local displacement u = current − rest local coordinates. By construction
     // u_a = 0, u_b = (ubx, 0, 0), u_c = (ucx, ucy, 0).
@@ -141,7 +221,7 @@ pub(crate) fn forces<const CURRENT_B: bool>(
     let [lam, mu] = lame;
     let lt = lam * (exx + eyy + ezz);
     let m2 = mu + mu;
-    let s: Sym = [
+    let s = [
         lt + m2 * exx,
         lt + m2 * eyy,
         lt + m2 * ezz,
@@ -149,8 +229,8 @@ pub(crate) fn forces<const CURRENT_B: bool>(
         mu * gyz,
         mu * gzx,
     ];
-    let energy =
-        0.5 * (s[0] * exx + s[1] * eyy + s[2] * ezz + s[3] * gxy + s[4] * gyz + s[5] * gzx);
+    let energy = T::splat(0.5)
+        * (s[0] * exx + s[1] * eyy + s[2] * ezz + s[3] * gxy + s[4] * gyz + s[5] * gzx);
     // Local forces fᵢ = −B̃ᵢᵀ σ̃ with B̃ᵢᵀσ = (βσxx + γσxy + δσzx, γσyy + βσxy + δσyz, δσzz + γσyz + βσzx).
     let fb = [
         -(bb * s[0] + gb * s[3] + db * s[5]),
@@ -164,14 +244,8 @@ pub(crate) fn forces<const CURRENT_B: bool>(
     ];
     let fd = [-(dd * s[5]), -(dd * s[4]), -(dd * s[2])];
     // Back to world: Rᵀ f = fx e1 + fy e2 + fz e3.
-    let [e1, e2, e3] = fr.e;
-    let to_world = |f: Vec3| {
-        [
-            f[0] * e1[0] + f[1] * e2[0] + f[2] * e3[0],
-            f[0] * e1[1] + f[1] * e2[1] + f[2] * e3[1],
-            f[0] * e1[2] + f[1] * e2[2] + f[2] * e3[2],
-        ]
-    };
+    let [_, e2, e3] = fr.e;
+    let to_world = |f: [T; 3]| to_world(&fr.e, f);
     // World gradients gᵢ = Rᵀ (βᵢ, γᵢ, δᵢ), skipping the zero entries.
     let grad = [
         to_world(g[0]),
@@ -182,11 +256,10 @@ pub(crate) fn forces<const CURRENT_B: bool>(
         ],
         scale(e3, dd),
     ];
-    ElementForces {
+    Kernel {
         f: [to_world(fb), to_world(fc), to_world(fd)],
         grad,
         energy,
-        inverted: l[5] < 0.0,
     }
 }
 

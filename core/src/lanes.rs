@@ -1,0 +1,84 @@
+//! `Lanes<L>`: `L` independent `f32` values, one element of a batch per lane.
+//!
+//! The element kernels are written once over [`Real`]; run on `Lanes<L>` they
+//! process `L` elements together, and each lane goes through exactly the
+//! operations the `f32` kernel does (no reassociation, no fused multiply-add,
+//! Rust never contracts), so a batched element gets the bits of a lone one
+//! on every target. The loops below are what the compiler vectorises: with
+//! SSE2 two or four lanes per instruction, with AVX-512 all of them.
+//!
+//! Why batches at all: one element's QR kernel is a long chain of dependent
+//! operations (two square roots and two divisions in the frame alone), so a
+//! scalar pass waits on latency; `L` elements side by side fill the pipeline.
+
+use crate::math::{sqrt, Real};
+use core::ops::{Add, Div, Mul, Neg, Sub};
+
+/// `L` independent `f32` lanes (units: those of what they hold).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Lanes<const L: usize>(pub(crate) [f32; L]);
+
+impl<const L: usize> Lanes<L> {
+    /// Sets lane `j` of each value to the entries of `v` (nothing if `j ≥ L`).
+    #[inline(always)]
+    pub(crate) fn put<const N: usize>(dst: &mut [Self; N], j: usize, v: [f32; N]) {
+        for (d, x) in dst.iter_mut().zip(v) {
+            if let Some(lane) = d.0.get_mut(j) {
+                *lane = x;
+            }
+        }
+    }
+
+    /// Lane `j` of each value, as an `f32` array.
+    #[inline(always)]
+    pub(crate) fn lane<const N: usize>(v: &[Self; N], j: usize) -> [f32; N] {
+        core::array::from_fn(|k| v[k].0.get(j).copied().unwrap_or(0.0))
+    }
+}
+
+macro_rules! lanewise {
+    ($tr:ident, $f:ident, $op:tt) => {
+        impl<const L: usize> $tr for Lanes<L> {
+            type Output = Self;
+            #[inline(always)]
+            fn $f(self, o: Self) -> Self {
+                let mut out = self.0;
+                for (a, b) in out.iter_mut().zip(o.0) {
+                    *a $op b;
+                }
+                Lanes(out)
+            }
+        }
+    };
+}
+lanewise!(Add, add, +=);
+lanewise!(Sub, sub, -=);
+lanewise!(Mul, mul, *=);
+lanewise!(Div, div, /=);
+
+impl<const L: usize> Neg for Lanes<L> {
+    type Output = Self;
+    #[inline(always)]
+    fn neg(self) -> Self {
+        let mut out = self.0;
+        for a in out.iter_mut() {
+            *a = -*a;
+        }
+        Lanes(out)
+    }
+}
+
+impl<const L: usize> Real for Lanes<L> {
+    #[inline(always)]
+    fn splat(x: f32) -> Self {
+        Lanes([x; L])
+    }
+    #[inline(always)]
+    fn root(self) -> Self {
+        let mut out = self.0;
+        for a in out.iter_mut() {
+            *a = sqrt(*a);
+        }
+        Lanes(out)
+    }
+}
