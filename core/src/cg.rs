@@ -14,7 +14,7 @@
 //! its constrained components are the constraint forces, which the ground
 //! uses to release nodes.
 
-use crate::math::{axpy, dot, scale, sqrt, Vec3};
+use crate::math::{axpy, dot, scale, sqrt, sub, Vec3};
 use crate::storage::NodeWork;
 
 /// What a CG solve did.
@@ -33,8 +33,9 @@ pub(crate) struct CgOutcome {
 /// produces round-off and, eventually, slow subnormal numbers.
 const FLOOR: f32 = f32::EPSILON * f32::EPSILON;
 
-/// Runs at most `max_iterations` CG iterations from `work.x` with `work.r =
-/// b − A x` already set. `project(node, v)` applies the filter `S` of a node;
+/// Runs at most `max_iterations` CG iterations from `work.x` with `work.r`
+/// set to `b − A x`, or, with `from_guess`, to `b` (the solve then subtracts
+/// `A x` itself, with the same `apply`). `project(node, v)` applies the filter `S` of a node;
 /// `apply(work)` finds every `work.q` zero, must set it to `A work.d`, and
 /// returns `dᵀq = Σ dᵢ·qᵢ` summed in node order.
 ///
@@ -43,13 +44,26 @@ const FLOOR: f32 = f32::EPSILON * f32::EPSILON;
 /// node loop, and `q` is zeroed for the next product in the loop that updates
 /// `d`: two passes over the nodes fewer per iteration (on a Cortex-M4F, 1 746
 /// → 1 727 instructions per tetrahedron-step, docs/firmware.md).
+#[inline(always)]
 pub(crate) fn solve(
     work: &mut [NodeWork],
     max_iterations: u32,
     tolerance: f32,
+    from_guess: bool,
     project: impl Fn(usize, Vec3) -> Vec3,
     mut apply: impl FnMut(&mut [NodeWork]) -> f32,
 ) -> CgOutcome {
+    if from_guess {
+        // r = b − A x₀.
+        for w in work.iter_mut() {
+            w.d = w.x;
+            w.q = [0.0; 3];
+        }
+        apply(work);
+        for w in work.iter_mut() {
+            w.r = sub(w.r, w.q);
+        }
+    }
     let mut rz = 0.0f32;
     for (i, w) in work.iter_mut().enumerate() {
         let z = project(i, scale(w.r, w.inv_p));

@@ -174,7 +174,14 @@ impl<S: Storage> Scene<S> {
                     }
                     dq
                 };
-                let out = cg::solve(work, cfg.cg_iterations, cfg.cg_tolerance, |_, z| z, apply);
+                let out = cg::solve(
+                    work,
+                    cfg.cg_iterations,
+                    cfg.cg_tolerance,
+                    false,
+                    |_, z| z,
+                    apply,
+                );
                 last.cg_iterations = out.iterations;
                 last.cg_residual = out.residual;
                 if out.overflow

@@ -29,6 +29,7 @@ use crate::storage::RELEASED;
 use crate::storage::{Node, NodeWork, CONTACT, FIXED};
 use crate::StepError;
 
+#[inline(always)]
 pub(crate) fn step(v: View<'_>) -> Result<StepStats, StepError> {
     let View {
         hdr,
@@ -138,50 +139,54 @@ pub(crate) fn step(v: View<'_>) -> Result<StepStats, StepError> {
     // A uniform guess needs no element pass for `r = b − A x₀`.
     let uniform = isolated && !s.warm_start;
 
-    // A d = (1 + h α_M) M d + h (α_K + h) K d (+ h² k/n d on grabbed nodes),
-    // into q = 0; returns dᵀ A d.
-    let apply = |work: &mut [NodeWork]| {
-        pass::stiffness(elems, work);
-        let mut dq = 0.0f32;
-        for (n, w) in nodes.iter().zip(work.iter_mut()) {
-            #[allow(unused_mut)] // only the tool adds to it
-            let mut p = mass_coef * n.mass;
-            #[cfg(feature = "tool")]
-            if n.flags & GRABBED != 0 && tool.active() {
-                p += h * h * tool.k_node;
-            }
-            w.q = axpy(scale(w.d, p), -k_coef, w.q);
-            dq += dot(w.d, w.q);
-        }
-        dq
-    };
-    let project = |i: usize, z: Vec3| -> Vec3 {
-        #[cfg(feature = "ground")]
-        if let (Some(g), Some(n)) = (ground, nodes.get(i)) {
-            if n.flags & CONTACT != 0 {
-                return g.filter(z);
-            }
-        }
-        let _ = i;
-        z
-    };
     if guess && uniform {
         // r = b − (1 + h α_M) M c: K c = 0 exactly for the uniform c.
         for (n, w) in nodes.iter().zip(work.iter_mut()) {
             w.r = axpy(w.r, -mass_coef * n.mass, w.x);
         }
-    } else if guess {
-        // r = b − A x₀.
-        for w in work.iter_mut() {
-            w.d = w.x;
-            w.q = [0.0; 3];
-        }
-        apply(work);
-        for w in work.iter_mut() {
-            w.r = sub(w.r, w.q);
-        }
     }
-    let outcome = cg::solve(work, s.cg_iterations, s.cg_tolerance, project, apply);
+    // Otherwise, with a guess, the solve starts with r = b − A x₀.
+    let from_guess = guess && !uniform;
+    // The operator and the filter go to the solve as arguments marked
+    // `#[inline(always)]`: inlined at both of its calls, so that a host that
+    // compiles the step for another instruction set (a `#[target_feature]`
+    // caller) gets them compiled for it too; a closure left out of line would
+    // stay at the baseline.
+    let outcome = cg::solve(
+        work,
+        s.cg_iterations,
+        s.cg_tolerance,
+        from_guess,
+        #[inline(always)]
+        |i: usize, z: Vec3| -> Vec3 {
+            #[cfg(feature = "ground")]
+            if let (Some(g), Some(n)) = (ground, nodes.get(i)) {
+                if n.flags & CONTACT != 0 {
+                    return g.filter(z);
+                }
+            }
+            let _ = i;
+            z
+        },
+        // A d = (1 + h α_M) M d + h (α_K + h) K d (+ h² k/n d on grabbed nodes),
+        // into q = 0; returns dᵀ A d.
+        #[inline(always)]
+        |work: &mut [NodeWork]| {
+            pass::stiffness(elems, work);
+            let mut dq = 0.0f32;
+            for (n, w) in nodes.iter().zip(work.iter_mut()) {
+                #[allow(unused_mut)] // only the tool adds to it
+                let mut p = mass_coef * n.mass;
+                #[cfg(feature = "tool")]
+                if n.flags & GRABBED != 0 && tool.active() {
+                    p += h * h * tool.k_node;
+                }
+                w.q = axpy(scale(w.d, p), -k_coef, w.q);
+                dq += dot(w.d, w.q);
+            }
+            dq
+        },
+    );
 
     // Check, then apply. The new displacement and velocity (after the ground
     // projection) go into the spent CG scratch `d` and `q`, and the state is

@@ -24,10 +24,12 @@
 //! # Ok::<(), corofem_io::MeshError>(())
 //! ```
 
-#![forbid(unsafe_code)]
+// Unsafe only to call the AVX2 instance of the step after detecting AVX2 (fast.rs).
+#![deny(unsafe_code)]
 #![warn(missing_docs)]
 
 mod error;
+pub mod fast;
 pub mod gmsh;
 mod guard;
 mod heap;

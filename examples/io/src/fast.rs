@@ -1,0 +1,71 @@
+//! Stepping with the instruction set of the CPU at hand.
+//!
+//! The core is `no_std` and cannot detect CPU features; it is compiled for the
+//! target's baseline (SSE2 on x86_64). [`step`] detects AVX2 at run time and
+//! then runs [`Scene::step`] compiled for it: `Scene::step` (and
+//! `step_haptic`) are `#[inline(always)]` down to the element kernels, so the
+//! whole step is instantiated inside the `#[target_feature]` function below. The arithmetic
+//! is the same IEEE operations in the same order either way (Rust never
+//! contracts to FMA and the `fma` feature is not enabled), so the bits are
+//! those of the baseline build; `host-tests/tests/fast_step.rs` checks it.
+//!
+//! Why AVX2 and not AVX-512, which this machine also has: with the core's
+//! batches of 8 elements, AVX-512 measured no faster than AVX2 (docs/bench.md).
+
+use corofem::{Scene, StepError, StepStats, Storage, Vec3};
+
+/// The instruction set [`step`] uses on this CPU: `"avx2"` or `"baseline"`.
+#[must_use]
+pub fn instruction_set() -> &'static str {
+    #[cfg(target_arch = "x86_64")]
+    if std::is_x86_feature_detected!("avx2") {
+        return "avx2";
+    }
+    "baseline"
+}
+
+/// One [`Scene::step`], compiled for AVX2 when the CPU has it (detected at
+/// run time), with the bits of the baseline build.
+pub fn step<S: Storage>(scene: &mut Scene<S>) -> Result<StepStats, StepError> {
+    #[cfg(target_arch = "x86_64")]
+    if std::is_x86_feature_detected!("avx2") {
+        return avx2::step(scene, None);
+    }
+    scene.step()
+}
+
+/// One [`Scene::step_haptic`] (tool target in m; the reaction force is in the
+/// statistics), compiled for AVX2 when the CPU has it.
+pub fn step_haptic<S: Storage>(scene: &mut Scene<S>, target: Vec3) -> Result<StepStats, StepError> {
+    #[cfg(target_arch = "x86_64")]
+    if std::is_x86_feature_detected!("avx2") {
+        return avx2::step(scene, Some(target));
+    }
+    scene.step_haptic(target)
+}
+
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    use super::{Scene, StepError, StepStats, Storage, Vec3};
+
+    /// `step` or `step_haptic` (with a target), compiled for AVX2. No closure
+    /// crosses this boundary: a closure would be compiled for the baseline.
+    #[allow(unsafe_code)] // calling a #[target_feature] function
+    pub(super) fn step<S: Storage>(
+        scene: &mut Scene<S>,
+        target: Option<Vec3>,
+    ) -> Result<StepStats, StepError> {
+        #[target_feature(enable = "avx2")]
+        fn inner<S: Storage>(
+            scene: &mut Scene<S>,
+            target: Option<Vec3>,
+        ) -> Result<StepStats, StepError> {
+            match target {
+                Some(x) => scene.step_haptic(x),
+                None => scene.step(),
+            }
+        }
+        // SAFETY: only called after `is_x86_feature_detected!("avx2")` returned true.
+        unsafe { inner(scene, target) }
+    }
+}
