@@ -609,6 +609,26 @@ fn markdown(rows: &[Row], quick: bool, total: f64) -> Res<String> {
             rel_err(&r.defaults.u, &r.reference_u),
         )?;
     }
+    writeln!(
+        md,
+        "\nLargest sag of the tip over the run (mm; less sensitive to the phase of the \
+         oscillation than the value at the end):\n"
+    )?;
+    writeln!(
+        md,
+        "| scene | corofem | rapier | rapier defaults | reference |\n|---|---|---|---|---|"
+    )?;
+    for r in rows {
+        writeln!(
+            md,
+            "| {} | {} | {} | {} | {} |",
+            r.scene,
+            mm(peak(&r.corofem.tips)),
+            mm(peak(&r.rapier.tips)),
+            mm(peak(&r.defaults.tips)),
+            mm(peak(&r.reference_tips)),
+        )?;
+    }
     let statics: Vec<String> = rows
         .iter()
         .filter_map(|r| r.static_tip.map(|s| format!("{} {} mm", r.scene, mm(s))))
