@@ -663,7 +663,7 @@ const SETTINGS: &str = "\
 | time step | one linearised implicit Euler step per dt = 1 ms | `num_solver_iterations` = 1 (no substeps), `dt` 1 ms: gravity first added to v (v′ = v + h g), then one `(M + h²K) Δv = h f − h²K v′` solve: the same step as corofem's `(M + h²K) Δv = h (f + M g) − h²K v` when solved exactly, not when truncated |
 | linear solve | matrix-free CG, 5 iterations, lumped-mass preconditioner, from Δv = 0 | `SoftFemParameters`: `max_linear_iterations` 5, `linear_tolerance` 0 (no early stop); assembled block-sparse `A`, block-Jacobi PCG from Δv = 0, solution then scaled by its energy minimiser clamped to [0, 1] |
 | collisions, sleeping | none | `no_surface_collider()`, `can_sleep(false)` |
-| per step, besides | — | `PhysicsWorld::step`: island and broad-phase bookkeeping (no colliders), step-start copy of `A` for constraint responses (none here) |
+| per step, besides | — | `PhysicsWorld::step`: island and broad-phase bookkeeping (no colliders), a step-start copy of `A` for constraint responses (none here), every cell's principal strains for the tear test (no tearing here) |
 
 What cannot match: rapier's rotation is polar, not QR (the same small-strain \
 stiffness, a different large-rotation response), its CG has a block-Jacobi \
