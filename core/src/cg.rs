@@ -44,7 +44,7 @@ const FLOOR: f32 = f32::EPSILON * f32::EPSILON;
 /// node loop, and `q` is zeroed for the next product in the loop that updates
 /// `d`: two passes over the nodes fewer per iteration (on a Cortex-M4F, 1 746
 /// → 1 727 instructions per tetrahedron-step, docs/firmware.md).
-#[inline(always)]
+#[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
 pub(crate) fn solve(
     work: &mut [NodeWork],
     max_iterations: u32,

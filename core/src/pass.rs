@@ -246,7 +246,7 @@ fn qr_batches<const CURRENT_B: bool, const WITH_KV: bool, const COMMIT: bool>(
 /// bought nothing (a 10k-tet step 1.05 → 1.07 ms with SSE2, slower with
 /// AVX-512): this product is short and limited by gathering `d` and
 /// scattering `q`, not by the latency of its arithmetic.
-#[inline(always)]
+#[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
 pub(crate) fn stiffness(elems: &[Element], work: &mut [NodeWork]) {
     for el in elems {
         let ids = el.nodes;

@@ -29,7 +29,7 @@ use crate::storage::RELEASED;
 use crate::storage::{Node, NodeWork, CONTACT, FIXED};
 use crate::StepError;
 
-#[inline(always)]
+#[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
 pub(crate) fn step(v: View<'_>) -> Result<StepStats, StepError> {
     let View {
         hdr,
@@ -147,17 +147,17 @@ pub(crate) fn step(v: View<'_>) -> Result<StepStats, StepError> {
     }
     // Otherwise, with a guess, the solve starts with r = b − A x₀.
     let from_guess = guess && !uniform;
-    // The operator and the filter go to the solve as arguments marked
-    // `#[inline(always)]`: inlined at both of its calls, so that a host that
+    // The operator and the filter go to the solve as arguments marked, on x86,
+    // `#[inline(always)]`: inlined at both of their calls, so that a host that
     // compiles the step for another instruction set (a `#[target_feature]`
     // caller) gets them compiled for it too; a closure left out of line would
-    // stay at the baseline.
+    // stay at the baseline. Elsewhere one out-of-line copy saves flash.
     let outcome = cg::solve(
         work,
         s.cg_iterations,
         s.cg_tolerance,
         from_guess,
-        #[inline(always)]
+        #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
         |i: usize, z: Vec3| -> Vec3 {
             #[cfg(feature = "ground")]
             if let (Some(g), Some(n)) = (ground, nodes.get(i)) {
@@ -170,7 +170,7 @@ pub(crate) fn step(v: View<'_>) -> Result<StepStats, StepError> {
         },
         // A d = (1 + h α_M) M d + h (α_K + h) K d (+ h² k/n d on grabbed nodes),
         // into q = 0; returns dᵀ A d.
-        #[inline(always)]
+        #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
         |work: &mut [NodeWork]| {
             pass::stiffness(elems, work);
             let mut dq = 0.0f32;

@@ -124,7 +124,7 @@ impl<S: crate::Storage> crate::Scene<S> {
     /// and returns the statistics with the force the body exerts on the tool
     /// (`StepStats::tool_force`, N) — what the device renders. On any error
     /// the target stays where it was, like the rest of the state.
-    #[inline(always)]
+    #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
     pub fn step_haptic(&mut self, target: Vec3) -> Result<crate::StepStats, crate::StepError> {
         let previous = self.hdr.tool.target;
         self.set_tool_target(target)?;

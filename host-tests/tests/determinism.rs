@@ -8,6 +8,12 @@ use corofem::{BoxMesh, BuildOptions, Material, Method, Plane, Settings, StaticSc
 /// A beam held at one end, pulled by the tool, touching the ground, with
 /// damping and warm start on: every part of the step runs.
 pub fn reference_run(method: Method) -> u64 {
+    run(method, false)
+}
+
+/// The reference run, stepped by `Scene::step` or, with `fast`, by
+/// `corofem_io::fast` (compiled for AVX2 when the CPU has it).
+fn run(method: Method, fast: bool) -> u64 {
     let mesh = BoxMesh {
         size: [1.0, 0.2, 0.2],
         cells: [10, 2, 2],
@@ -50,12 +56,20 @@ pub fn reference_run(method: Method) -> u64 {
     let start = s.tool_target();
     for k in 0..300 {
         let t = k as f32 * 1e-3;
-        s.step_haptic([start[0], start[1] + 0.1 * t, start[2] - 0.4 * t])
-            .unwrap();
+        let target = [start[0], start[1] + 0.1 * t, start[2] - 0.4 * t];
+        if fast {
+            corofem_io::fast::step_haptic(&mut *s, target).unwrap();
+        } else {
+            s.step_haptic(target).unwrap();
+        }
     }
     s.release();
     for _ in 0..100 {
-        s.step().unwrap();
+        if fast {
+            corofem_io::fast::step(&mut *s).unwrap();
+        } else {
+            s.step().unwrap();
+        }
     }
     s.state_hash()
 }
@@ -64,6 +78,16 @@ pub fn reference_run(method: Method) -> u64 {
 fn same_input_same_bits() {
     for &m in Method::ALL {
         assert_eq!(reference_run(m), reference_run(m), "{m:?}");
+    }
+}
+
+/// The step compiled for the instruction set detected at run time (AVX2 on
+/// this machine) gives the bits of the baseline build, for every method.
+#[test]
+fn fast_step_has_the_bits_of_the_baseline() {
+    eprintln!("instruction set: {}", corofem_io::fast::instruction_set());
+    for &m in Method::ALL {
+        assert_eq!(run(m, true), run(m, false), "{m:?}");
     }
 }
 

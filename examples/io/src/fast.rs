@@ -14,21 +14,36 @@
 
 use corofem::{Scene, StepError, StepStats, Storage, Vec3};
 
-/// The instruction set [`step`] uses on this CPU: `"avx2"` or `"baseline"`.
+/// The instruction set [`step`] uses: `"avx2"` when the CPU has AVX2 (and
+/// the environment variable `COROFEM_ISA` is not `baseline`), else
+/// `"baseline"`. Decided once per process.
 #[must_use]
 pub fn instruction_set() -> &'static str {
-    #[cfg(target_arch = "x86_64")]
-    if std::is_x86_feature_detected!("avx2") {
-        return "avx2";
+    if use_avx2() {
+        "avx2"
+    } else {
+        "baseline"
     }
-    "baseline"
+}
+
+/// AVX2 detected and not turned off by `COROFEM_ISA=baseline` (cached).
+fn use_avx2() -> bool {
+    static AVX2: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    *AVX2.get_or_init(|| {
+        let off = std::env::var("COROFEM_ISA").is_ok_and(|v| v == "baseline");
+        #[cfg(target_arch = "x86_64")]
+        let has = std::is_x86_feature_detected!("avx2");
+        #[cfg(not(target_arch = "x86_64"))]
+        let has = false;
+        has && !off
+    })
 }
 
 /// One [`Scene::step`], compiled for AVX2 when the CPU has it (detected at
 /// run time), with the bits of the baseline build.
 pub fn step<S: Storage>(scene: &mut Scene<S>) -> Result<StepStats, StepError> {
     #[cfg(target_arch = "x86_64")]
-    if std::is_x86_feature_detected!("avx2") {
+    if use_avx2() {
         return avx2::step(scene, None);
     }
     scene.step()
@@ -38,7 +53,7 @@ pub fn step<S: Storage>(scene: &mut Scene<S>) -> Result<StepStats, StepError> {
 /// statistics), compiled for AVX2 when the CPU has it.
 pub fn step_haptic<S: Storage>(scene: &mut Scene<S>, target: Vec3) -> Result<StepStats, StepError> {
     #[cfg(target_arch = "x86_64")]
-    if std::is_x86_feature_detected!("avx2") {
+    if use_avx2() {
         return avx2::step(scene, Some(target));
     }
     scene.step_haptic(target)
@@ -65,7 +80,8 @@ mod avx2 {
                 None => scene.step(),
             }
         }
-        // SAFETY: only called after `is_x86_feature_detected!("avx2")` returned true.
+        // SAFETY: only called when `use_avx2()`, that is after
+        // `is_x86_feature_detected!("avx2")` returned true.
         unsafe { inner(scene, target) }
     }
 }
