@@ -243,9 +243,10 @@ fn qr_batches<const CURRENT_B: bool, const WITH_KV: bool, const COMMIT: bool>(
 /// Stiffness product `q += −K d` with the gradients of the last force pass.
 ///
 /// One element at a time: batching it like the force pass was measured and
-/// bought nothing (a 10k-tet step 1.05 → 1.07 ms with SSE2, slower with
-/// AVX-512): this product is short and limited by gathering `d` and
-/// scattering `q`, not by the latency of its arithmetic.
+/// bought little (a 10k-tet step, 5 CG: 1.05 → 1.07 ms with SSE2, 0.96 →
+/// 0.94 ms with AVX2): this product is short, and moving `d`, the gradients
+/// and `q` between nodes, elements and lanes costs about what the lanes
+/// save in arithmetic.
 #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
 pub(crate) fn stiffness(elems: &[Element], work: &mut [NodeWork]) {
     for el in elems {
