@@ -7,6 +7,10 @@
 //! on every target. The loops below are what the compiler vectorises: with
 //! SSE2 two or four lanes per instruction, with AVX-512 all of them.
 //!
+//! The loops must be vectorised to pay off: at `opt-level = "s"` or `"z"` the
+//! compiler leaves them as loops and a batched pass is about twice as slow as
+//! one element at a time (docs/web.md); build the core at `opt-level` 2 or 3.
+//!
 //! Why batches at all: one element's QR kernel is a long chain of dependent
 //! operations (two square roots and two divisions in the frame alone), so a
 //! scalar pass waits on latency; `L` elements side by side fill the pipeline.
