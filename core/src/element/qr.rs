@@ -37,8 +37,16 @@ pub(crate) fn frame_regular<T: Real>(ab: [T; 3], ac: [T; 3], ad: [T; 3]) -> (Fra
     let c = cross(e1, ac);
     let n3 = dot(c, c);
     let e3 = scale(c, one / n3.root());
+    (with_axes(e1, e3, ab, ac, ad), [n1, n3])
+}
+
+/// The frame with first and third axes `e1`, `e3` (unit, orthogonal):
+/// `e2 = e3 × e1` and the local coordinates of the edges `ab, ac, ad`.
+#[inline(always)]
+#[must_use]
+fn with_axes<T: Real>(e1: [T; 3], e3: [T; 3], ab: [T; 3], ac: [T; 3], ad: [T; 3]) -> Frame<T> {
     let e2 = cross(e3, e1);
-    let fr = Frame {
+    Frame {
         e: [e1, e2, e3],
         local: [
             dot(e1, ab),
@@ -48,8 +56,7 @@ pub(crate) fn frame_regular<T: Real>(ab: [T; 3], ac: [T; 3], ad: [T; 3]) -> (Fra
             dot(e2, ad),
             dot(e3, ad),
         ],
-    };
-    (fr, [n1, n3])
+    }
 }
 
 /// A squared length that [`normalize`] divides by: normal and finite.
@@ -82,18 +89,7 @@ pub(crate) fn frame(ab: Vec3, ac: Vec3, ad: Vec3) -> Frame {
             None => any_perpendicular(e1),
         },
     };
-    let e2 = cross(e3, e1);
-    Frame {
-        e: [e1, e2, e3],
-        local: [
-            dot(e1, ab),
-            dot(e1, ac),
-            dot(e2, ac),
-            dot(e1, ad),
-            dot(e2, ad),
-            dot(e3, ad),
-        ],
-    }
+    with_axes(e1, e3, ab, ac, ad)
 }
 
 /// A unit vector perpendicular to the unit vector `e`: `e` crossed with the
