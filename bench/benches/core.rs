@@ -1,7 +1,8 @@
 //! Criterion micro-benchmarks of the core on the 10 368-tet cube of
 //! `examples/scenes/timing_cube10k.toml`: the element force pass (the QR
-//! kernel over every element, through the diagnostics' `elastic_forces`) and
-//! whole steps, `Qr` with 1, 5 and 10 CG iterations and every method with 5.
+//! kernel over every element, through the diagnostics' `elastic_forces`), the
+//! stiffness product of one CG iteration (`stiffness_product`) and whole
+//! steps, `Qr` with 1, 5 and 10 CG iterations and every method with 5.
 //! CG stops early at the f32 residual floor, so step differences bound the
 //! cost of one iteration from above only.
 //!
@@ -31,6 +32,32 @@ fn element_pass(c: &mut Criterion) {
     });
 }
 
+fn stiffness_product(c: &mut Criterion) {
+    let def = cube();
+    let mut scene = def.core(Method::Qr, 1e-3, 5);
+    for _ in 0..20 {
+        scene.step().expect("finite");
+    }
+    // Any direction: the product's cost does not depend on the values.
+    let d: Vec<[f32; 3]> = (0..def.nodes.len())
+        .map(|i| {
+            let t = i as f32;
+            [t.sin(), (0.7 * t).cos(), 0.1]
+        })
+        .collect();
+    let mut out = vec![[0.0f32; 3]; def.nodes.len()];
+    c.bench_function(
+        "stiffness product -K d (one CG iteration's element pass), 10k tets",
+        |b| {
+            b.iter(|| {
+                scene
+                    .stiffness_product(black_box(&d), &mut out)
+                    .expect("sizes")
+            })
+        },
+    );
+}
+
 fn steps(c: &mut Criterion) {
     let def = cube();
     let mut group = c.benchmark_group("step, 10k tets");
@@ -57,6 +84,6 @@ criterion_group! {
     // Short runs: a step is ~1–2.5 ms, so 3 s of measurement still time
     // over a thousand steps per benchmark, in 30 samples.
     config = Criterion::default().sample_size(30).measurement_time(Duration::from_secs(3));
-    targets = element_pass, steps
+    targets = element_pass, stiffness_product, steps
 }
 criterion_main!(benches);

@@ -61,4 +61,34 @@ impl<S: Storage> Scene<S> {
         });
         Ok(totals.inverted)
     }
+
+    /// The stiffness product `out = −K d` (N, for `d` in m) of the operator
+    /// CG iterates on, with the world gradients of the last force evaluation
+    /// (the last step, or the build): the product each CG iteration runs,
+    /// exposed to check it against an assembled matrix and to time it
+    /// (`cargo bench -p corofem-bench --bench core`). `d` and `out` hold one
+    /// vector per node (their first `node_count()` entries are used).
+    ///
+    /// Uses the solver's scratch (`NodeWork`'s search direction and product),
+    /// never the state; a non-finite or too short `d`, or a too short `out`,
+    /// is an `InvalidParameter` error.
+    pub fn stiffness_product(&mut self, d: &[Vec3], out: &mut [Vec3]) -> Result<(), crate::Error> {
+        let v = self.view();
+        let n = v.nodes.len();
+        let (Some(d), Some(out)) = (d.get(..n), out.get_mut(..n)) else {
+            return Err(crate::Error::InvalidParameter { name: "d or out" });
+        };
+        if !d.iter().all(|x| crate::math::is_finite3(*x)) {
+            return Err(crate::Error::InvalidParameter { name: "d" });
+        }
+        for (w, x) in v.work.iter_mut().zip(d) {
+            w.d = *x;
+            w.q = [0.0; 3];
+        }
+        pass::stiffness(v.elems, v.work);
+        for (o, w) in out.iter_mut().zip(v.work.iter()) {
+            *o = w.q;
+        }
+        Ok(())
+    }
 }
