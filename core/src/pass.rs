@@ -47,8 +47,9 @@ fn scatter(ids: [u16; 4], f: &[Vec3; 3], mut add_to: impl FnMut(usize, Vec3)) {
 }
 
 /// Elements per batch of the QR force pass: eight where the target has
-/// vector registers (x86, x86_64, AArch64), one elsewhere (a Cortex-M4F has
-/// none, and a batch would only cost stack and flash there).
+/// vector registers (x86, x86_64, AArch64; measured on x86_64 only, where 8
+/// beat 4 and 16), one elsewhere (a Cortex-M4F has none, and a batch would
+/// only cost stack and flash there; wasm32 builds without `simd128`).
 #[cfg(any(feature = "qr", feature = "qr-rest-b"))]
 const LANES: usize = if cfg!(any(
     target_arch = "x86_64",
