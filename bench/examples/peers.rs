@@ -13,7 +13,7 @@ use corofem::Method;
 use corofem_bench::scenes::{self, SceneDef};
 use rapier3d::prelude::*;
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::Instant;
 
 type Res<T> = Result<T, Box<dyn std::error::Error>>;
@@ -349,21 +349,10 @@ fn euler_bernoulli(d: &SceneDef) -> f64 {
 }
 
 fn main() -> Res<()> {
-    let mut quick = false;
-    let mut out = Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/bench-report");
-    let mut args = std::env::args().skip(1);
-    while let Some(a) = args.next() {
-        match a.as_str() {
-            "--quick" => quick = true,
-            "--out" => out = PathBuf::from(args.next().ok_or("--out needs a directory")?),
-            "-h" | "--help" => {
-                println!("peers [--quick] [--out DIR]  (default DIR target/bench-report)");
-                return Ok(());
-            }
-            other => return Err(format!("unknown argument {other}").into()),
-        }
-    }
-    std::fs::create_dir_all(&out)?;
+    let Some(args) = corofem_bench::args::report_args("peers [--quick] [--out DIR]", &[])? else {
+        return Ok(());
+    };
+    let (quick, out) = (args.quick, args.out);
     let steps = if quick { 50 } else { 200 };
     let t0 = Instant::now();
     let mut rows = Vec::new();

@@ -2,6 +2,7 @@
 //! scenes and the error metrics. The `corofem-bench` binary writes the report
 //! (docs/bench.md).
 
+pub mod args;
 pub mod reference;
 pub mod scenes;
 

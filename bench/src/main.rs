@@ -10,7 +10,7 @@ use corofem_bench::scenes::{self, SceneDef};
 use plot::{loglog, Legend, Series};
 use std::fmt::Write as _;
 use std::io::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Instant;
 
 type Res<T> = Result<T, Box<dyn std::error::Error>>;
@@ -71,23 +71,18 @@ struct Opts {
 }
 
 fn main() -> Res<()> {
-    let mut quick = false;
-    let mut out = Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/bench-report");
-    let mut args = std::env::args().skip(1);
-    while let Some(a) = args.next() {
-        match a.as_str() {
-            "bench" => {}
-            "--quick" => quick = true,
-            "--out" => out = args.next().ok_or("--out needs a directory")?.into(),
-            "-h" | "--help" => {
-                println!("corofem-bench [bench] [--quick] [--out DIR]  (default DIR target/bench-report)");
-                return Ok(());
-            }
-            other => return Err(format!("unknown argument {other}").into()),
-        }
-    }
-    std::fs::create_dir_all(&out)?;
-    let o = Opts { quick, out };
+    let Some(args) = corofem_bench::args::report_args(
+        "corofem-bench [bench] [--quick] [--out DIR]",
+        &["bench"],
+    )?
+    else {
+        return Ok(());
+    };
+    let quick = args.quick;
+    let o = Opts {
+        quick,
+        out: args.out,
+    };
     let t0 = Instant::now();
     let mut md = String::new();
     writeln!(md, "# corofem benchmark report\n")?;

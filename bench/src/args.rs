@@ -1,0 +1,35 @@
+//! The command line shared by the report (`corofem-bench [bench]`) and the
+//! peers example: `[--quick] [--out DIR]`.
+
+use std::path::{Path, PathBuf};
+
+/// Parsed options.
+#[derive(Clone, Debug)]
+pub struct ReportArgs {
+    /// Shorter runs (CI).
+    pub quick: bool,
+    /// Output folder (created), `target/bench-report/` by default.
+    pub out: PathBuf,
+}
+
+/// Parses `std::env::args()`; words in `ignored` are accepted and skipped.
+/// Prints `usage` and returns `None` for `-h` or `--help`.
+pub fn report_args(usage: &str, ignored: &[&str]) -> Result<Option<ReportArgs>, String> {
+    let mut quick = false;
+    let mut out = Path::new(env!("CARGO_MANIFEST_DIR")).join("../target/bench-report");
+    let mut args = std::env::args().skip(1);
+    while let Some(a) = args.next() {
+        match a.as_str() {
+            "--quick" => quick = true,
+            "--out" => out = args.next().ok_or("--out needs a directory")?.into(),
+            "-h" | "--help" => {
+                println!("{usage}  (default DIR target/bench-report)");
+                return Ok(None);
+            }
+            w if ignored.contains(&w) => {}
+            other => return Err(format!("unknown argument {other}")),
+        }
+    }
+    std::fs::create_dir_all(&out).map_err(|e| format!("{}: {e}", out.display()))?;
+    Ok(Some(ReportArgs { quick, out }))
+}
