@@ -47,14 +47,16 @@ fn scatter(ids: [u16; 4], f: &[Vec3; 3], mut add_to: impl FnMut(usize, Vec3)) {
 }
 
 /// Elements per batch of the QR force pass: eight where the target has
-/// vector registers (x86, x86_64, AArch64; measured on x86_64 only, where 8
-/// beat 4 and 16), one elsewhere (a Cortex-M4F has none, and a batch would
-/// only cost stack and flash there; wasm32 builds without `simd128`).
+/// vector registers (x86, x86_64, AArch64, wasm32 with `simd128`; measured on
+/// x86_64, where 8 beat 4 and 16, and on wasm32 in Node, same bits), one
+/// elsewhere (a Cortex-M4F has none, and a batch would only cost stack and
+/// flash there).
 #[cfg(any(feature = "qr", feature = "qr-rest-b"))]
 const LANES: usize = if cfg!(any(
     target_arch = "x86_64",
     target_arch = "x86",
-    target_arch = "aarch64"
+    target_arch = "aarch64",
+    all(target_arch = "wasm32", target_feature = "simd128")
 )) {
     8
 } else {
