@@ -35,9 +35,9 @@ const FLOOR: f32 = f32::EPSILON * f32::EPSILON;
 
 /// Runs at most `max_iterations` CG iterations from `work.x` with `work.r`
 /// set to `b − A x`, or, with `from_guess`, to `b` (the solve then subtracts
-/// `A x` itself, with the same `apply`). `project(node, v)` applies the filter `S` of a node;
-/// `apply(work)` finds every `work.q` zero, must set it to `A work.d`, and
-/// returns `dᵀq = Σ dᵢ·qᵢ` summed in node order.
+/// `A x` itself, with the same `apply`). `project(node, v)` applies the
+/// filter `S` of a node; `apply(work)` finds every `work.q` zero, must set it
+/// to `A work.d`, and returns `dᵀq = Σ dᵢ·qᵢ` summed in node order.
 ///
 /// Loops are fused where the order of operations allows it, so the result
 /// has the bits of the plain algorithm: `dᵀq` is summed inside `apply`'s

@@ -118,15 +118,21 @@ fn finish<const WITH_KV: bool>(
     add_to: &mut impl FnMut(usize, Vec3, Vec3),
     totals: &mut PassTotals,
 ) {
-    el.grad = out.grad;
-    totals.inverted += u32::from(out.inverted);
-    totals.energy += out.energy;
     let kv = if WITH_KV {
         hform::stiffness_product(vel, &out.grad, el.lame)
     } else {
         [[0.0; 3]; 3]
     };
+    keep(el, out, totals);
     emit(el.nodes, &out.f, &kv, add_to);
+}
+
+/// Keeps an element's new gradients and adds it to the totals.
+#[inline(always)]
+fn keep(el: &mut Element, out: &ElementForces, totals: &mut PassTotals) {
+    el.grad = out.grad;
+    totals.inverted += u32::from(out.inverted);
+    totals.energy += out.energy;
 }
 
 /// Hands `[f_b, f_c, f_d]` and `f_a = −(f_b + f_c + f_d)` (and the same of
@@ -213,12 +219,6 @@ fn qr_batches<const CURRENT_B: bool, const WITH_KV: bool, const COMMIT: bool>(
                     Batch::lane(&v[2], j),
                 ]
             };
-            let vel = [
-                Batch::lane(&vel[0], j),
-                Batch::lane(&vel[1], j),
-                Batch::lane(&vel[2], j),
-                Batch::lane(&vel[3], j),
-            ];
             let lane = |v: Batch| v.0.get(j).copied().unwrap_or(0.0);
             if qr::regular(lane(n1)) && qr::regular(lane(n3)) {
                 let out = ElementForces {
@@ -227,14 +227,13 @@ fn qr_batches<const CURRENT_B: bool, const WITH_KV: bool, const COMMIT: bool>(
                     energy: lane(k.energy),
                     inverted: lane(fr.local[5]) < 0.0,
                 };
-                el.grad = out.grad;
-                totals.inverted += u32::from(out.inverted);
-                totals.energy += out.energy;
-                let kv = if WITH_KV { lane3(&kv) } else { [[0.0; 3]; 3] };
-                emit(el.nodes, &out.f, &kv, add_to);
+                keep(el, &out, totals);
+                emit(el.nodes, &out.f, &lane3(&kv), add_to);
             } else {
+                // The fallback frame, and −K v with its gradients, alone.
                 let c = lane3(&cur);
                 let out = qr::forces::<CURRENT_B>(c[0], c[1], c[2], &el.rest, el.lame);
+                let vel: [Vec3; 4] = core::array::from_fn(|m| Batch::lane(&vel[m], j));
                 finish::<WITH_KV>(el, &out, &vel, add_to, totals);
             }
         }

@@ -241,10 +241,9 @@ pub(crate) fn in_frame<T: Real, const CURRENT_B: bool>(
     let fd = [-(dd * s[5]), -(dd * s[4]), -(dd * s[2])];
     // Back to world: Rᵀ f = fx e1 + fy e2 + fz e3.
     let [_, e2, e3] = fr.e;
-    let to_world = |f: [T; 3]| to_world(&fr.e, f);
     // World gradients gᵢ = Rᵀ (βᵢ, γᵢ, δᵢ), skipping the zero entries.
     let grad = [
-        to_world(g[0]),
+        to_world(&fr.e, g[0]),
         [
             gc * e2[0] + dc * e3[0],
             gc * e2[1] + dc * e3[1],
@@ -253,7 +252,11 @@ pub(crate) fn in_frame<T: Real, const CURRENT_B: bool>(
         scale(e3, dd),
     ];
     Kernel {
-        f: [to_world(fb), to_world(fc), to_world(fd)],
+        f: [
+            to_world(&fr.e, fb),
+            to_world(&fr.e, fc),
+            to_world(&fr.e, fd),
+        ],
         grad,
         energy,
     }

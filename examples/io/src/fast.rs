@@ -3,11 +3,13 @@
 //! The core is `no_std` and cannot detect CPU features; it is compiled for the
 //! target's baseline (SSE2 on x86_64). [`step`] detects AVX2 at run time and
 //! then runs [`Scene::step`] compiled for it: `Scene::step` (and
-//! `step_haptic`) are `#[inline(always)]` down to the element kernels, so the
-//! whole step is instantiated inside the `#[target_feature]` function below. The arithmetic
-//! is the same IEEE operations in the same order either way (Rust never
-//! contracts to FMA and the `fma` feature is not enabled), so the bits are
-//! those of the baseline build; `host-tests/tests/fast_step.rs` checks it.
+//! `step_haptic`) are `#[inline(always)]` down to the element kernels on x86,
+//! so the whole step is instantiated inside the `#[target_feature]` function
+//! below. The arithmetic is the same IEEE operations in the same order either
+//! way (Rust never contracts to FMA and the `fma` feature is not enabled), so
+//! the bits are those of the baseline build;
+//! `fast_step_has_the_bits_of_the_baseline` in
+//! `host-tests/tests/determinism.rs` checks it for every method.
 //!
 //! Why AVX2 and not AVX-512, which this machine also has: with the core's
 //! batches of 8 elements, AVX-512 measured no faster than AVX2 (docs/bench.md).
@@ -42,21 +44,34 @@ fn use_avx2() -> bool {
 /// One [`Scene::step`], compiled for AVX2 when the CPU has it (detected at
 /// run time), with the bits of the baseline build.
 pub fn step<S: Storage>(scene: &mut Scene<S>) -> Result<StepStats, StepError> {
-    #[cfg(target_arch = "x86_64")]
-    if use_avx2() {
-        return avx2::step(scene, None);
-    }
-    scene.step()
+    dispatch(scene, None)
 }
 
 /// One [`Scene::step_haptic`] (tool target in m; the reaction force is in the
 /// statistics), compiled for AVX2 when the CPU has it.
 pub fn step_haptic<S: Storage>(scene: &mut Scene<S>, target: Vec3) -> Result<StepStats, StepError> {
+    dispatch(scene, Some(target))
+}
+
+/// `step` (no target) or `step_haptic`, with AVX2 when [`use_avx2`].
+fn dispatch<S: Storage>(
+    scene: &mut Scene<S>,
+    target: Option<Vec3>,
+) -> Result<StepStats, StepError> {
     #[cfg(target_arch = "x86_64")]
     if use_avx2() {
-        return avx2::step(scene, Some(target));
+        return avx2::step(scene, target);
     }
-    scene.step_haptic(target)
+    run(scene, target)
+}
+
+/// The step itself, inlined into whichever instance calls it.
+#[inline(always)]
+fn run<S: Storage>(scene: &mut Scene<S>, target: Option<Vec3>) -> Result<StepStats, StepError> {
+    match target {
+        Some(x) => scene.step_haptic(x),
+        None => scene.step(),
+    }
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -75,10 +90,7 @@ mod avx2 {
             scene: &mut Scene<S>,
             target: Option<Vec3>,
         ) -> Result<StepStats, StepError> {
-            match target {
-                Some(x) => scene.step_haptic(x),
-                None => scene.step(),
-            }
+            super::run(scene, target)
         }
         // SAFETY: only called when `use_avx2()`, that is after
         // `is_x86_feature_detected!("avx2")` returned true.
