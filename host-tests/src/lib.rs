@@ -160,6 +160,14 @@ impl Rng {
     pub fn range(&mut self, lo: f64, hi: f64) -> f64 {
         lo + (hi - lo) * self.next_f64()
     }
+    /// An f32 vector with components uniform in `[−half, half)`.
+    pub fn vec3(&mut self, half: f64) -> [f32; 3] {
+        [
+            self.range(-half, half) as f32,
+            self.range(-half, half) as f32,
+            self.range(-half, half) as f32,
+        ]
+    }
     /// A random unit vector.
     pub fn unit(&mut self) -> [f64; 3] {
         loop {

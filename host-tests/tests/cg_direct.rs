@@ -217,15 +217,7 @@ fn converged_cg_step_equals_a_dense_direct_solve() {
             }
         })
         .collect();
-    let v: Vec<[f32; 3]> = (0..n)
-        .map(|_| {
-            [
-                rng.range(-0.5, 0.5) as f32,
-                rng.range(-0.5, 0.5) as f32,
-                rng.range(-0.5, 0.5) as f32,
-            ]
-        })
-        .collect();
+    let v: Vec<[f32; 3]> = (0..n).map(|_| rng.vec3(0.5)).collect();
     scene.set_positions(&x).unwrap();
     scene.set_velocities(&v).unwrap();
     let v0: Vec<V> = (0..n)

@@ -17,18 +17,10 @@ fn equals_the_force_derivative_at_rest_on_real_meshes() {
             density: 1000.0,
         };
         let n = mesh.nodes.len();
-        // Displacement direction: random, of the order of one edge length
-        // scaled down by `eps` below.
+        // Displacement direction: random components in [−1, 1) m; the
+        // difference quotient below moves the nodes by eps times that.
         let mut rng = Rng::new(11);
-        let d: Vec<[f32; 3]> = (0..n)
-            .map(|_| {
-                [
-                    rng.range(-1.0, 1.0) as f32,
-                    rng.range(-1.0, 1.0) as f32,
-                    rng.range(-1.0, 1.0) as f32,
-                ]
-            })
-            .collect();
+        let d: Vec<[f32; 3]> = (0..n).map(|_| rng.vec3(1.0)).collect();
         for method in [Method::Qr, Method::Polar, Method::Linear] {
             let mut scene = mesh.scene(&material);
             scene.set_method(method).unwrap();
