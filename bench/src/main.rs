@@ -10,7 +10,6 @@ use corofem_bench::scenes::{self, SceneDef};
 use plot::{loglog, Legend, Series};
 use std::fmt::Write as _;
 use std::io::Write as _;
-use std::path::PathBuf;
 use std::time::Instant;
 
 type Res<T> = Result<T, Box<dyn std::error::Error>>;
@@ -65,24 +64,18 @@ impl Progress {
     }
 }
 
-struct Opts {
-    quick: bool,
-    out: PathBuf,
-}
+/// The command line: `[bench] [--quick] [--out DIR]`.
+use corofem_bench::args::ReportArgs as Opts;
 
 fn main() -> Res<()> {
-    let Some(args) = corofem_bench::args::report_args(
+    let Some(o) = corofem_bench::args::report_args(
         "corofem-bench [bench] [--quick] [--out DIR]",
         &["bench"],
     )?
     else {
         return Ok(());
     };
-    let quick = args.quick;
-    let o = Opts {
-        quick,
-        out: args.out,
-    };
+    let quick = o.quick;
     let t0 = Instant::now();
     let mut md = String::new();
     writeln!(md, "# corofem benchmark report\n")?;
