@@ -66,14 +66,21 @@ pub(crate) fn lame_per_young(poisson: f32) -> [f32; 2] {
     ]
 }
 
-/// The element coefficients `[λ', μ'] = [λ, μ] / (36 V₀)` used by the kernels,
-/// where `six_v0 = 6 V₀` (m³). They fold the `1/(6V₀)` of `B` twice and the
-/// volume of the energy integral `V₀` into one factor.
+/// An element's stiffness `E / (36 V₀)` (Pa/m³), where `six_v0 = 6 V₀` (m³).
+/// It folds the `1/(6V₀)` of `B` twice and the volume of the energy integral
+/// `V₀` into one factor.
 #[must_use]
-pub(crate) fn element_lame(young: f32, per_young: [f32; 2], six_v0: f32) -> [f32; 2] {
+pub(crate) fn element_stiffness(young: f32, six_v0: f32) -> f32 {
     // 1/(36 V₀) = 1/(6 · 6V₀)
-    let s = young / (6.0 * six_v0);
-    [per_young[0] * s, per_young[1] * s]
+    young / (6.0 * six_v0)
+}
+
+/// The coefficients `[λ', μ'] = [λ, μ] / (36 V₀)` (Pa/m³) used by the kernels,
+/// from an element's [`element_stiffness`] and [`lame_per_young`].
+#[inline(always)]
+#[must_use]
+pub(crate) fn lame(stiffness: f32, per_young: [f32; 2]) -> [f32; 2] {
+    [per_young[0] * stiffness, per_young[1] * stiffness]
 }
 
 #[cfg(test)]

@@ -74,9 +74,11 @@ type Batch = Lanes<LANES>;
 ///
 /// `add_to(node, f_elastic, minus_k_v)` receives each contribution, element
 /// after element, in element order, whether or not elements are batched.
+/// `per_young` is the body's [`lame_per_young`](crate::material::lame_per_young).
 #[inline(always)]
 pub(crate) fn forces<const WITH_KV: bool, const COMMIT: bool>(
     method: Method,
+    per_young: [f32; 2],
     nodes: &[Node],
     elems: &mut [Element],
     mut add_to: impl FnMut(usize, Vec3, Vec3),
@@ -85,11 +87,11 @@ pub(crate) fn forces<const WITH_KV: bool, const COMMIT: bool>(
     let done = match method {
         #[cfg(feature = "qr")]
         Method::Qr if LANES > 1 => {
-            qr_batches::<true, WITH_KV, COMMIT>(nodes, elems, &mut add_to, &mut totals)
+            qr_batches::<true, WITH_KV, COMMIT>(per_young, nodes, elems, &mut add_to, &mut totals)
         }
         #[cfg(feature = "qr-rest-b")]
         Method::QrRestB if LANES > 1 => {
-            qr_batches::<false, WITH_KV, COMMIT>(nodes, elems, &mut add_to, &mut totals)
+            qr_batches::<false, WITH_KV, COMMIT>(per_young, nodes, elems, &mut add_to, &mut totals)
         }
         _ => 0,
     };
@@ -101,9 +103,9 @@ pub(crate) fn forces<const WITH_KV: bool, const COMMIT: bool>(
         };
         let rest = diffs(&[n[0].x0, n[1].x0, n[2].x0, n[3].x0]);
         let du = diffs(&[n[0].u, n[1].u, n[2].u, n[3].u]);
-        let out = element::forces(method, el, &rest, &du);
+        let out = element::forces(method, el, per_young, &rest, &du);
         let vel = [n[0].v, n[1].v, n[2].v, n[3].v];
-        finish::<WITH_KV>(el, &out, &vel, &mut add_to, &mut totals);
+        finish::<WITH_KV>(el, per_young, &out, &vel, &mut add_to, &mut totals);
     }
     totals
 }
@@ -113,13 +115,14 @@ pub(crate) fn forces<const WITH_KV: bool, const COMMIT: bool>(
 #[inline(always)]
 fn finish<const WITH_KV: bool>(
     el: &mut Element,
+    per_young: [f32; 2],
     out: &ElementForces,
     vel: &[Vec3; 4],
     add_to: &mut impl FnMut(usize, Vec3, Vec3),
     totals: &mut PassTotals,
 ) {
     let kv = if WITH_KV {
-        hform::stiffness_product(vel, &out.grad, el.lame)
+        hform::stiffness_product(vel, &out.grad, el.lame(per_young))
     } else {
         [[0.0; 3]; 3]
     };
@@ -159,6 +162,7 @@ fn emit(ids: [u16; 4], f: &[Vec3; 3], kv: &[Vec3; 3], add_to: &mut impl FnMut(us
 #[cfg(any(feature = "qr", feature = "qr-rest-b"))]
 #[inline(always)]
 fn qr_batches<const CURRENT_B: bool, const WITH_KV: bool, const COMMIT: bool>(
+    per_young: [f32; 2],
     nodes: &[Node],
     elems: &mut [Element],
     add_to: &mut impl FnMut(usize, Vec3, Vec3),
@@ -168,12 +172,12 @@ fn qr_batches<const CURRENT_B: bool, const WITH_KV: bool, const COMMIT: bool>(
     let mut done = 0;
     for chunk in elems.chunks_exact_mut(LANES) {
         // Gather: rest edges, displacement differences, node velocities,
-        // rest local coordinates and Lamé coefficients, one element per lane.
+        // rest local coordinates and stiffnesses, one element per lane.
         let mut rest = [[zero; 3]; 3];
         let mut du = [[zero; 3]; 3];
         let mut vel = [[zero; 3]; 4];
         let mut local = [zero; 6];
-        let mut lame = [zero; 2];
+        let mut stiffness = [zero];
         let mut present = [false; LANES];
         for (j, el) in chunk.iter().enumerate() {
             let (Some(n), Some(p)) = (gather(nodes, el.nodes), present.get_mut(j)) else {
@@ -190,9 +194,14 @@ fn qr_batches<const CURRENT_B: bool, const WITH_KV: bool, const COMMIT: bool>(
                 }
             }
             Batch::put(&mut local, j, el.rest);
-            Batch::put(&mut lame, j, el.lame);
+            Batch::put(&mut stiffness, j, [el.stiffness]);
         }
-        // The kernel on every lane at once.
+        // The kernel on every lane at once, with `[λ', μ']` formed as
+        // `crate::material::lame` forms them.
+        let lame = [
+            Batch::splat(per_young[0]) * stiffness[0],
+            Batch::splat(per_young[1]) * stiffness[0],
+        ];
         let cur = [
             add(rest[0], du[0]),
             add(rest[1], du[1]),
@@ -232,9 +241,9 @@ fn qr_batches<const CURRENT_B: bool, const WITH_KV: bool, const COMMIT: bool>(
             } else {
                 // The fallback frame, and −K v with its gradients, alone.
                 let c = lane3(&cur);
-                let out = qr::forces::<CURRENT_B>(c[0], c[1], c[2], &el.rest, el.lame);
+                let out = qr::forces::<CURRENT_B>(c[0], c[1], c[2], &el.rest, el.lame(per_young));
                 let vel: [Vec3; 4] = core::array::from_fn(|m| Batch::lane(&vel[m], j));
-                finish::<WITH_KV>(el, &out, &vel, add_to, totals);
+                finish::<WITH_KV>(el, per_young, &out, &vel, add_to, totals);
             }
         }
         done += LANES;
@@ -250,7 +259,7 @@ fn qr_batches<const CURRENT_B: bool, const WITH_KV: bool, const COMMIT: bool>(
 /// and `q` between nodes, elements and lanes costs about what the lanes
 /// save in arithmetic.
 #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
-pub(crate) fn stiffness(elems: &[Element], work: &mut [NodeWork]) {
+pub(crate) fn stiffness(per_young: [f32; 2], elems: &[Element], work: &mut [NodeWork]) {
     for el in elems {
         let ids = el.nodes;
         let get = |i: u16| work.get(usize::from(i)).map(|w| w.d);
@@ -260,7 +269,7 @@ pub(crate) fn stiffness(elems: &[Element], work: &mut [NodeWork]) {
             continue;
         };
         let x = [a, b, c, d];
-        let kd = hform::stiffness_product(&x, &el.grad, el.lame);
+        let kd = hform::stiffness_product(&x, &el.grad, el.lame(per_young));
         scatter(ids, &kd, |i, v| {
             if let Some(w) = work.get_mut(i) {
                 w.q = add(w.q, v);
@@ -274,11 +283,16 @@ pub(crate) fn stiffness(elems: &[Element], work: &mut [NodeWork]) {
 /// block diagonal is `λ' g gᵀ + μ' (|g|² I + g gᵀ)`, whose trace is
 /// `(λ' + 2μ') |g|²`; node `a` has `g_a = −(g_b + g_c + g_d)`.
 #[cfg(feature = "statics")]
-pub(crate) fn stiffness_diagonal(elems: &[Element], mut add_to: impl FnMut(usize, f32)) {
+pub(crate) fn stiffness_diagonal(
+    per_young: [f32; 2],
+    elems: &[Element],
+    mut add_to: impl FnMut(usize, f32),
+) {
     for el in elems {
         let g = el.grad;
         let ga = neg(add(add(g[0], g[1]), g[2]));
-        let c = (el.lame[0] + 2.0 * el.lame[1]) * (1.0 / 3.0);
+        let [l, m] = el.lame(per_young);
+        let c = (l + 2.0 * m) * (1.0 / 3.0);
         let ids = el.nodes;
         for (id, gi) in ids.iter().zip([ga, g[0], g[1], g[2]]) {
             add_to(usize::from(*id), c * crate::math::dot(gi, gi));
@@ -297,6 +311,8 @@ mod tests {
     /// give every node the bits of the element-by-element computation.
     #[test]
     fn batched_forces_are_the_bits_of_one_by_one() {
+        // Poisson ratio 0.3: λ/E = 0.3/(1.3·0.4), μ/E = 1/2.6.
+        const PER_YOUNG: [f32; 2] = [0.576_923_1, 0.384_615_4];
         let mut nodes = [Node::EMPTY; 12];
         for (i, n) in nodes.iter_mut().enumerate() {
             let t = i as f32;
@@ -319,7 +335,7 @@ mod tests {
                 _ => [k % 10, (k + 3) % 10, (k + 5) % 10, (k + 8) % 10],
             };
             el.rest = qr::frame([1.0, 0.1, 0.0], [0.2, 0.9, 0.1], [0.1, 0.2, 1.1]).local;
-            el.lame = [1.0e4 + 10.0 * e as f32, 2.0e4];
+            el.stiffness = 1.0e4 + 10.0 * e as f32;
         }
         let run = |batched: bool| {
             let mut f = [[0.0f32; 3]; 12];
@@ -330,7 +346,7 @@ mod tests {
                 kv[i] = add(kv[i], b);
             };
             let totals = if batched {
-                forces::<true, true>(Method::Qr, &nodes, &mut els, add_to)
+                forces::<true, true>(Method::Qr, PER_YOUNG, &nodes, &mut els, add_to)
             } else {
                 let mut add_to = add_to;
                 let mut totals = PassTotals::default();
@@ -338,9 +354,9 @@ mod tests {
                     let n = gather(&nodes, el.nodes).expect("in range");
                     let rest = diffs(&[n[0].x0, n[1].x0, n[2].x0, n[3].x0]);
                     let du = diffs(&[n[0].u, n[1].u, n[2].u, n[3].u]);
-                    let out = element::forces(Method::Qr, el, &rest, &du);
+                    let out = element::forces(Method::Qr, el, PER_YOUNG, &rest, &du);
                     let vel = [n[0].v, n[1].v, n[2].v, n[3].v];
-                    finish::<true>(el, &out, &vel, &mut add_to, &mut totals);
+                    finish::<true>(el, PER_YOUNG, &out, &vel, &mut add_to, &mut totals);
                 }
                 totals
             };

@@ -2,7 +2,9 @@
 
 use crate::element::{qr, Element, Method};
 use crate::error::{Error, StepError};
-use crate::material::{element_lame, lame_per_young, validate_poisson, validate_young, Material};
+use crate::material::{
+    element_stiffness, lame, lame_per_young, validate_poisson, validate_young, Material,
+};
 use crate::math::{add, det3, is_finite3, sub, Vec3};
 use crate::settings::{Settings, StepStats};
 use crate::storage::{ArrayStorage, Node, NodeWork, Storage, FIXED};
@@ -41,6 +43,13 @@ pub(crate) struct Header {
 }
 
 impl Header {
+    /// The body's `[λ/E, μ/E]`, which turn each element's `E/(36 V₀)` into
+    /// the kernels' `[λ', μ']`.
+    #[inline(always)]
+    pub(crate) fn per_young(&self) -> [f32; 2] {
+        lame_per_young(self.poisson)
+    }
+
     const EMPTY: Self = Self {
         n_nodes: 0,
         n_elems: 0,
@@ -212,8 +221,8 @@ impl<S: Storage> Scene<S> {
             // of 1e19 m; or 1e38 m next to a sliver, found by fuzzing), or
             // the rest state is not even an equilibrium (0 · ∞). Check them
             // as the step will compute them: with the step's own kernel.
-            let lame = element_lame(material.young, per_young, six_v0);
-            let gradients_finite = rest_gradients(positions, &t, &frame, lame)
+            let coefs = lame(element_stiffness(material.young, six_v0), per_young);
+            let gradients_finite = rest_gradients(positions, &t, &frame, coefs)
                 .iter()
                 .flatten()
                 .all(|g| g.is_finite());
@@ -230,8 +239,8 @@ impl<S: Storage> Scene<S> {
                 && (1.0 / (6.0 * six_v0)).is_finite()
                 && quarter >= f32::MIN_POSITIVE
                 && quarter.is_finite()
-                && lame[0].is_finite()
-                && lame[1].is_finite())
+                && coefs[0].is_finite()
+                && coefs[1].is_finite())
             {
                 return Err(Error::DegenerateElement { element: e });
             }
@@ -262,13 +271,12 @@ impl<S: Storage> Scene<S> {
             // Validated above: `oriented` cannot fail here.
             let t = oriented(e, tet, positions, options).unwrap_or([0; 4]);
             let (frame, six_v0) = rest_frame(positions, &t);
-            let lame = element_lame(material.young, per_young, six_v0);
-            let grad = rest_gradients(positions, &t, &frame, lame);
+            let stiffness = element_stiffness(material.young, six_v0);
+            let grad = rest_gradients(positions, &t, &frame, lame(stiffness, per_young));
             *slot = Element {
                 nodes: [t[0] as u16, t[1] as u16, t[2] as u16, t[3] as u16],
                 rest: frame.local,
-                young: material.young,
-                lame,
+                stiffness,
                 grad,
                 #[cfg(any(feature = "polar", feature = "linear"))]
                 rest_grad: grad,
@@ -394,10 +402,14 @@ impl<S: Storage> Scene<S> {
         self.elems().get(e).map(|el| el.nodes)
     }
 
-    /// Young's modulus of element `e` (Pa).
+    /// Young's modulus of element `e` (Pa). An element keeps `E / (36 V₀)`,
+    /// so this is that times `36 V₀`: the value set, to within f32 round-off
+    /// (a few units in the last place).
     #[must_use]
     pub fn young(&self, e: usize) -> Option<f32> {
-        self.elems().get(e).map(|el| el.young)
+        self.elems()
+            .get(e)
+            .map(|el| el.stiffness * (6.0 * el.six_v0()))
     }
 
     /// Rest volume of element `e` (m³).
@@ -422,12 +434,11 @@ impl<S: Storage> Scene<S> {
             .elems
             .get_mut(e)
             .ok_or(Error::ElementOutOfRange { element: e })?;
-        let lame = element_lame(young, per_young, el.six_v0());
-        if !(lame[0].is_finite() && lame[1].is_finite()) {
+        let stiffness = element_stiffness(young, el.six_v0());
+        if !lame_finite(stiffness, per_young) {
             return Err(Error::InvalidParameter { name: "young" });
         }
-        el.young = young;
-        el.lame = lame;
+        el.stiffness = stiffness;
         Ok(())
     }
 
@@ -440,9 +451,8 @@ impl<S: Storage> Scene<S> {
             return Err(Error::InvalidParameter { name: "young" });
         }
         for el in self.view().elems.iter_mut() {
-            el.young = young;
+            el.stiffness = element_stiffness(young, el.six_v0());
         }
-        self.refresh_lame();
         Ok(())
     }
 
@@ -454,7 +464,6 @@ impl<S: Storage> Scene<S> {
             return Err(Error::InvalidParameter { name: "poisson" });
         }
         self.hdr.poisson = poisson;
-        self.refresh_lame();
         Ok(())
     }
 
@@ -463,16 +472,9 @@ impl<S: Storage> Scene<S> {
     fn lame_fits(&self, young: Option<f32>, poisson: f32) -> bool {
         let per_young = lame_per_young(poisson);
         self.elems().iter().all(|el| {
-            let lame = element_lame(young.unwrap_or(el.young), per_young, el.six_v0());
-            lame[0].is_finite() && lame[1].is_finite()
+            let stiffness = young.map_or(el.stiffness, |y| element_stiffness(y, el.six_v0()));
+            lame_finite(stiffness, per_young)
         })
-    }
-
-    fn refresh_lame(&mut self) {
-        let per_young = lame_per_young(self.hdr.poisson);
-        for el in self.view().elems.iter_mut() {
-            el.lame = element_lame(el.young, per_young, el.six_v0());
-        }
     }
 
     /// Fixes the listed nodes (they stop and stay where they are).
@@ -710,4 +712,10 @@ fn check_field(
         return Err(Error::InvalidParameter { name });
     }
     Ok(())
+}
+
+/// Whether an element's Lamé coefficients are finite.
+fn lame_finite(stiffness: f32, per_young: [f32; 2]) -> bool {
+    let [l, m] = lame(stiffness, per_young);
+    l.is_finite() && m.is_finite()
 }

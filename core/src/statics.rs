@@ -105,18 +105,20 @@ impl<S: Storage> Scene<S> {
             return Err(Error::Unconstrained);
         }
         let s = v.hdr.settings;
+        let per_young = v.hdr.per_young();
         let (nodes, work, elems) = (v.nodes, v.work, v.elems);
         let mut last = NewtonStats::default();
         for iteration in 0..cfg.max_iterations.max(1) {
             for w in work.iter_mut() {
                 *w = NodeWork::EMPTY;
             }
-            let totals = pass::forces::<false, true>(s.method, nodes, elems, |i, f, _| {
-                if let Some(w) = work.get_mut(i) {
-                    w.r = add(w.r, f);
-                }
-            });
-            pass::stiffness_diagonal(elems, |i, d| {
+            let totals =
+                pass::forces::<false, true>(s.method, per_young, nodes, elems, |i, f, _| {
+                    if let Some(w) = work.get_mut(i) {
+                        w.r = add(w.r, f);
+                    }
+                });
+            pass::stiffness_diagonal(per_young, elems, |i, d| {
                 if let Some(w) = work.get_mut(i) {
                     w.inv_p += d;
                 }
@@ -159,7 +161,7 @@ impl<S: Storage> Scene<S> {
             };
             if !last.converged {
                 let apply = |work: &mut [NodeWork]| {
-                    pass::stiffness(elems, work);
+                    pass::stiffness(per_young, elems, work);
                     let mut dq = 0.0f32;
                     for (_n, w) in nodes.iter().zip(work.iter_mut()) {
                         // K d = −(−K d), plus the tool spring.

@@ -38,6 +38,7 @@ pub(crate) fn step(v: View<'_>) -> Result<StepStats, StepError> {
         elems,
     } = v;
     let s = hdr.settings;
+    let per_young = hdr.per_young();
     let h = s.dt;
     let mass_coef = 1.0 + h * s.rayleigh_mass;
     let k_coef = h * (s.rayleigh_stiffness + h);
@@ -51,7 +52,7 @@ pub(crate) fn step(v: View<'_>) -> Result<StepStats, StepError> {
         w.r = [0.0; 3];
         w.q = [0.0; 3];
     }
-    let totals = pass::forces::<true, true>(s.method, nodes, elems, |i, f, kv| {
+    let totals = pass::forces::<true, true>(s.method, per_young, nodes, elems, |i, f, kv| {
         if let Some(w) = work.get_mut(i) {
             w.r = add(w.r, f);
             w.q = add(w.q, kv);
@@ -172,7 +173,7 @@ pub(crate) fn step(v: View<'_>) -> Result<StepStats, StepError> {
         // into q = 0; returns dᵀ A d.
         #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
         |work: &mut [NodeWork]| {
-            pass::stiffness(elems, work);
+            pass::stiffness(per_young, elems, work);
             let mut dq = 0.0f32;
             for (n, w) in nodes.iter().zip(work.iter_mut()) {
                 #[allow(unused_mut)] // only the tool adds to it

@@ -115,7 +115,7 @@ pub(crate) struct ElementForces {
     pub(crate) inverted: bool,
 }
 
-/// Per-element storage (80 bytes with `Qr` only; +36 with `polar` or
+/// Per-element storage (72 bytes with `Qr` only; +36 with `polar` or
 /// `linear` for the rest world gradients; +16 with `polar` for the rotation).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Element {
@@ -123,10 +123,10 @@ pub struct Element {
     pub(crate) nodes: [u16; 4],
     /// Rest local coordinates `[xb, xc, yc, xd, yd, zd]` in the QR frame (m).
     pub(crate) rest: qr::Local,
-    /// Young's modulus of this element (Pa).
-    pub(crate) young: f32,
-    /// `[λ', μ'] = [λ, μ] / (36 V₀)` (Pa/m³).
-    pub(crate) lame: [f32; 2],
+    /// `E / (36 V₀)` (Pa/m³): this element's Young's modulus over `36 V₀`.
+    /// With the body's Poisson ratio it gives the Lamé coefficients the
+    /// kernels use, [`Element::lame`].
+    pub(crate) stiffness: f32,
     /// World gradients of `b, c, d` from the last force evaluation (m²).
     pub(crate) grad: [Vec3; 3],
     /// Rest world gradients of `b, c, d` (m²).
@@ -142,8 +142,7 @@ impl Element {
     pub const EMPTY: Self = Self {
         nodes: [0; 4],
         rest: [0.0; 6],
-        young: 0.0,
-        lame: [0.0; 2],
+        stiffness: 0.0,
         grad: [[0.0; 3]; 3],
         #[cfg(any(feature = "polar", feature = "linear"))]
         rest_grad: [[0.0; 3]; 3],
@@ -155,6 +154,14 @@ impl Element {
     #[must_use]
     pub(crate) fn six_v0(&self) -> f32 {
         self.rest[0] * self.rest[2] * self.rest[5]
+    }
+
+    /// `[λ', μ'] = [λ, μ] / (36 V₀)` (Pa/m³) for the body's
+    /// [`lame_per_young`](crate::material::lame_per_young) `per_young`.
+    #[inline(always)]
+    #[must_use]
+    pub(crate) fn lame(&self, per_young: [f32; 2]) -> [f32; 2] {
+        crate::material::lame(self.stiffness, per_young)
     }
 }
 
@@ -173,9 +180,11 @@ impl Default for Element {
 pub(crate) fn forces(
     method: Method,
     el: &mut Element,
+    per_young: [f32; 2],
     rest: &[Vec3; 3],
     du: &[Vec3; 3],
 ) -> ElementForces {
+    let lame = el.lame(per_young);
     let cur = [
         add(rest[0], du[0]),
         add(rest[1], du[1]),
@@ -183,13 +192,13 @@ pub(crate) fn forces(
     ];
     match method {
         #[cfg(feature = "qr")]
-        Method::Qr => qr::forces::<true>(cur[0], cur[1], cur[2], &el.rest, el.lame),
+        Method::Qr => qr::forces::<true>(cur[0], cur[1], cur[2], &el.rest, lame),
         #[cfg(feature = "qr-rest-b")]
-        Method::QrRestB => qr::forces::<false>(cur[0], cur[1], cur[2], &el.rest, el.lame),
+        Method::QrRestB => qr::forces::<false>(cur[0], cur[1], cur[2], &el.rest, lame),
         #[cfg(feature = "polar")]
-        Method::Polar => polar::forces(&cur, rest, &el.rest_grad, el.lame, &mut el.rot),
+        Method::Polar => polar::forces(&cur, rest, &el.rest_grad, lame, &mut el.rot),
         #[cfg(feature = "linear")]
-        Method::Linear => linear::forces(du, &cur, &el.rest_grad, el.lame),
+        Method::Linear => linear::forces(du, &cur, &el.rest_grad, lame),
     }
 }
 
@@ -210,10 +219,12 @@ mod tests {
         ];
         let rest = [sub(x[1], x[0]), sub(x[2], x[0]), sub(x[3], x[0])];
         let fr = qr::frame(rest[0], rest[1], rest[2]);
-        let lame = [1.0f32, 0.5];
+        // Stiffness 1 with [λ/E, μ/E] = [1, 0.5]: λ' = 1, μ' = 0.5.
+        let per_young = [1.0f32, 0.5];
+        let lame = per_young;
         let mut el = Element {
             rest: fr.local,
-            lame,
+            stiffness: 1.0,
             ..Element::EMPTY
         };
         let out = qr::forces::<true>(rest[0], rest[1], rest[2], &fr.local, lame);
@@ -237,7 +248,7 @@ mod tests {
                     scale(sub(d[2], d[0]), s),
                     scale(sub(d[3], d[0]), s),
                 ];
-                forces(m, &mut el.clone(), &rest, &du).f
+                forces(m, &mut el.clone(), per_young, &rest, &du).f
             };
             let (fp, fm) = (f_at(eps), f_at(-eps));
             for i in 0..3 {
