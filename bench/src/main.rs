@@ -213,9 +213,12 @@ fn memory(o: &Opts, md: &mut String) -> Res<()> {
     writeln!(
         md,
         "\nPer-feature breakdown (from the layouts documented in core/src/storage.rs and \
-         element/mod.rs; a single binary can only measure one feature set): `Element` is 80 bytes \
-         with `qr` alone, +36 with `polar` or `linear` (rest gradients), +16 with `polar` \
-         (rotation); `Node` is 56 bytes, +12 with `tool`; `NodeWork` is 52 bytes always.\n"
+         element/mod.rs; a single binary can only measure one feature set; the core unit test \
+         `storage_sizes_per_feature` checks the sums): `Element` is 72 bytes with `qr` alone, \
+         +36 with `polar` or `linear` (rest gradients), +16 with `polar` (rotation); `Node` is \
+         44 bytes, +12 with `tool` (grab offset), +12 with `loads` (external force); \
+         `NodeWork` is 52 bytes always. A `qr` scene therefore keeps 72 bytes per element and \
+         96 per node; with every feature 124 and 120.\n"
     )?;
     writeln!(
         md,

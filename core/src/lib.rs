@@ -63,7 +63,7 @@
 //! |---|---|
 //! | `qr` (default) | the paper's QR method |
 //! | `polar`, `linear`, `qr-rest-b` | the other element methods |
-//! | `ground`, `tool`, `statics`, `diagnostics` | ground contact, haptic tool, static solve, energies and momenta |
+//! | `ground`, `tool`, `loads`, `statics`, `diagnostics` | ground contact, haptic tool, constant nodal forces, static solve, energies and momenta |
 //! | `full` | all of the above |
 //! | `libm` (default) / `micromath` | math backend (exactly one) |
 //! | `fpu-sqrt` | square root with the FPU's `vsqrt.f32` on bare-metal Arm hard-float targets (Cortex-M4F/M7), bit-identical to `libm` |

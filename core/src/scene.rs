@@ -501,6 +501,7 @@ impl<S: Storage> Scene<S> {
     }
 
     /// Sets the constant external force on node `i` (N).
+    #[cfg(feature = "loads")]
     pub fn set_force(&mut self, i: usize, force: Vec3) -> Result<(), Error> {
         if !is_finite3(force) {
             return Err(Error::InvalidParameter { name: "force" });
@@ -515,6 +516,7 @@ impl<S: Storage> Scene<S> {
     }
 
     /// Removes every external force.
+    #[cfg(feature = "loads")]
     pub fn clear_forces(&mut self) {
         for n in self.view().nodes.iter_mut() {
             n.f_ext = [0.0; 3];

@@ -9,7 +9,9 @@
 //! spring hold the body; the ground plays no part in a static solve.
 
 use crate::cg;
-use crate::math::{add, axpy, dot, is_finite3, scale, sqrt, sub};
+use crate::math::{add, dot, is_finite3, scale, sqrt};
+#[cfg(feature = "tool")]
+use crate::math::{axpy, sub};
 use crate::pass;
 #[cfg(feature = "tool")]
 use crate::storage::GRABBED;
@@ -128,7 +130,12 @@ impl<S: Storage> Scene<S> {
             // The same sums in f64, used only when the f32 ones overflow.
             let (mut r2_wide, mut load2_wide) = (0.0f64, 0.0f64);
             for (n, w) in nodes.iter().zip(work.iter_mut()) {
-                let mut load = add(n.f_ext, scale(s.gravity, n.mass));
+                #[allow(unused_mut)] // only loads and the tool add to it
+                let mut load = scale(s.gravity, n.mass);
+                #[cfg(feature = "loads")]
+                {
+                    load = add(n.f_ext, load);
+                }
                 #[allow(unused_mut)] // only the tool adds to it
                 let mut diag = w.inv_p;
                 #[cfg(feature = "tool")]

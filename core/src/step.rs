@@ -81,7 +81,11 @@ pub(crate) fn step(v: View<'_>) -> Result<StepStats, StepError> {
     let mut isolated = !any_fixed;
     for (n, w) in nodes.iter_mut().zip(work.iter_mut()) {
         let m = n.mass;
-        let mut f = add(add(w.r, n.f_ext), scale(s.gravity, m));
+        #[cfg(feature = "loads")]
+        let f_el = add(w.r, n.f_ext);
+        #[cfg(not(feature = "loads"))]
+        let f_el = w.r;
+        let mut f = add(f_el, scale(s.gravity, m));
         f = axpy(f, -s.rayleigh_mass * m, n.v);
         #[allow(unused_mut)] // only the tool adds to it
         let mut p = mass_coef * m;

@@ -17,7 +17,8 @@ pub(crate) const RELEASED: u8 = 4;
 /// Node flag: the ground holds this node during the current step.
 pub(crate) const CONTACT: u8 = 8;
 
-/// Per-node state (53 bytes of data; 56 with padding, +12 with `tool`).
+/// Per-node state (41 bytes of data; 44 with padding, +12 with `loads`, +12
+/// with `tool`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Node {
     /// Rest position (m).
@@ -29,6 +30,7 @@ pub struct Node {
     /// Velocity (m/s).
     pub(crate) v: Vec3,
     /// External force (N), constant until changed.
+    #[cfg(feature = "loads")]
     pub(crate) f_ext: Vec3,
     /// Lumped mass (kg): a quarter of `ρ V₀` of every element around the node.
     pub(crate) mass: f32,
@@ -45,6 +47,7 @@ impl Node {
         x0: [0.0; 3],
         u: [0.0; 3],
         v: [0.0; 3],
+        #[cfg(feature = "loads")]
         f_ext: [0.0; 3],
         mass: 0.0,
         flags: 0,
@@ -183,5 +186,30 @@ impl Storage for SliceStorage<'_> {
     }
     fn parts_mut(&mut self) -> (&mut [Node], &mut [NodeWork], &mut [Element]) {
         (self.nodes, self.work, self.elems)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The storage the core keeps, per feature set (the numbers the docs and
+    /// the benchmark report quote): an element is 72 bytes with `qr`, plus the
+    /// rest gradients (36) for `polar`/`linear` and the rotation (16) for
+    /// `polar`; a node is 44 + 52 bytes, plus 12 for each of `tool` and `loads`.
+    /// CI runs this with `qr` alone, with the firmware's set and with `full`.
+    #[test]
+    fn storage_sizes_per_feature() {
+        let rest_grad = if cfg!(any(feature = "polar", feature = "linear")) {
+            36
+        } else {
+            0
+        };
+        let rot = if cfg!(feature = "polar") { 16 } else { 0 };
+        assert_eq!(core::mem::size_of::<Element>(), 72 + rest_grad + rot);
+        let tool = if cfg!(feature = "tool") { 12 } else { 0 };
+        let loads = if cfg!(feature = "loads") { 12 } else { 0 };
+        assert_eq!(core::mem::size_of::<Node>(), 44 + tool + loads);
+        assert_eq!(core::mem::size_of::<NodeWork>(), 52);
     }
 }
