@@ -4,7 +4,7 @@
 
 mod plot;
 
-use corofem::{Element, Method, Node, NodeWork};
+use corofem::{ElementBlock, Method, Node, NodeWork, ELEMENTS_PER_BLOCK};
 use corofem_bench::reference::Model;
 use corofem_bench::scenes::{self, SceneDef};
 use plot::{loglog, Legend, Series};
@@ -190,12 +190,15 @@ fn memory(o: &Opts, md: &mut String) -> Res<()> {
     let (node, work, elem) = (
         std::mem::size_of::<Node>(),
         std::mem::size_of::<NodeWork>(),
-        std::mem::size_of::<Element>(),
+        std::mem::size_of::<ElementBlock>() / ELEMENTS_PER_BLOCK,
     );
     let mut csv = String::from("item,bytes,note\n");
     writeln!(csv, "Node,{node},state per node (features: full)")?;
     writeln!(csv, "NodeWork,{work},CG scratch per node")?;
-    writeln!(csv, "Element,{elem},per element (features: full)")?;
+    writeln!(
+        csv,
+        "Element,{elem},per element: ElementBlock / ELEMENTS_PER_BLOCK (features: full)"
+    )?;
     writeln!(csv, "per_node,{},Node + NodeWork", node + work)?;
     std::fs::write(o.out.join("memory.csv"), csv)?;
     let cube = (12u64 * 12 * 12 * 6, 13u64 * 13 * 13);
@@ -207,14 +210,14 @@ fn memory(o: &Opts, md: &mut String) -> Res<()> {
     )?;
     writeln!(
         md,
-        "| **per node** | **{}** |\n| **per element** (`Element`) | **{elem}** |",
+        "| **per node** | **{}** |\n| **per element** (`ElementBlock` / {ELEMENTS_PER_BLOCK}) | **{elem}** |",
         node + work
     )?;
     writeln!(
         md,
         "\nPer-feature breakdown (from the layouts documented in core/src/storage.rs and \
          element/mod.rs; a single binary can only measure one feature set; the core unit test \
-         `storage_sizes_per_feature` checks the sums): `Element` is 72 bytes with `qr` alone, \
+         `storage_sizes_per_feature` checks the sums): an element is 72 bytes with `qr` alone, \
          +36 with `polar` or `linear` (rest gradients), +16 with `polar` (rotation); `Node` is \
          44 bytes, +12 with `tool` (grab offset), +12 with `loads` (external force); \
          `NodeWork` is 52 bytes always. A `qr` scene therefore keeps 72 bytes per element and \

@@ -3,12 +3,15 @@
 //! ```text
 //!  caller's buffer (any address, `corofem_scene_bytes` long)
 //!  ┌─────┬──────────────┬──────────────┬──────────────────┬──────────────────┐
-//!  │ pad │ SceneHandle  │ Node × N     │ NodeWork × N     │ Element × T      │
-//!  │ 0–7 │ magic, range,│ state, mass, │ CG scratch       │ rest frame, λ μ, │
+//!  │ pad │ SceneHandle  │ Node × N     │ NodeWork × N     │ ElementBlock × B │
+//!  │ 0–7 │ magic, range,│ state, mass, │ CG scratch       │ rest frame, E,   │
 //!  │     │ Scene<Slice… │ flags, grab  │                  │ world gradients  │
 //!  └─────┴──────────────┴──────────────┴──────────────────┴──────────────────┘
 //!        ▲ the handle: aligned to 8; the arrays follow at their own alignment
 //! ```
+//!
+//! `B = element_blocks(T)`: elements are stored in blocks of 8 on x86 and
+//! AArch64 hosts, of 1 on a Cortex-M4F.
 //!
 //! The handle holds a `Scene<SliceStorage<'static>>` whose slices point into
 //! the same buffer, so the buffer must stay where it is, untouched by the
@@ -22,7 +25,7 @@ use core::alloc::Layout;
 use core::mem::{align_of, size_of};
 use core::ptr;
 
-use corofem_core::{Element, Node, NodeWork, Scene, SliceStorage, StepStats};
+use corofem_core::{element_blocks, ElementBlock, Node, NodeWork, Scene, SliceStorage, StepStats};
 
 use crate::status::Status;
 
@@ -55,6 +58,8 @@ struct Plan {
     nodes: usize,
     work: usize,
     elems: usize,
+    /// Element blocks for the element capacity.
+    blocks: usize,
     size: usize,
     align: usize,
 }
@@ -63,11 +68,13 @@ fn plan(max_nodes: usize, max_tets: usize) -> Option<Plan> {
     let head = Layout::new::<SceneHandle>();
     let (l, nodes) = head.extend(Layout::array::<Node>(max_nodes).ok()?).ok()?;
     let (l, work) = l.extend(Layout::array::<NodeWork>(max_nodes).ok()?).ok()?;
-    let (l, elems) = l.extend(Layout::array::<Element>(max_tets).ok()?).ok()?;
+    let blocks = element_blocks(max_tets);
+    let (l, elems) = l.extend(Layout::array::<ElementBlock>(blocks).ok()?).ok()?;
     Some(Plan {
         nodes,
         work,
         elems,
+        blocks,
         size: l.size(),
         align: l.align(),
     })
@@ -122,13 +129,13 @@ pub unsafe fn init(
         let base = buffer.add(pad);
         let nodes = base.add(p.nodes).cast::<Node>();
         let work = base.add(p.work).cast::<NodeWork>();
-        let elems = base.add(p.elems).cast::<Element>();
+        let elems = base.add(p.elems).cast::<ElementBlock>();
         for i in 0..max_nodes {
             nodes.add(i).write(Node::EMPTY);
             work.add(i).write(NodeWork::EMPTY);
         }
-        for i in 0..max_tets {
-            elems.add(i).write(Element::EMPTY);
+        for i in 0..p.blocks {
+            elems.add(i).write(ElementBlock::EMPTY);
         }
         // The slices are initialised and disjoint from each other and from
         // the handle. `'static` stands for "until the caller frees the
@@ -136,7 +143,7 @@ pub unsafe fn init(
         let storage = SliceStorage::new(
             core::slice::from_raw_parts_mut(nodes, max_nodes),
             core::slice::from_raw_parts_mut(work, max_nodes),
-            core::slice::from_raw_parts_mut(elems, max_tets),
+            core::slice::from_raw_parts_mut(elems, p.blocks),
         );
         let handle = base.cast::<SceneHandle>();
         handle.write(SceneHandle {
@@ -207,7 +214,7 @@ mod tests {
         let b = scene_bytes(4, 1).unwrap();
         let parts = size_of::<SceneHandle>()
             + 4 * (size_of::<Node>() + size_of::<NodeWork>())
-            + size_of::<Element>();
+            + size_of::<ElementBlock>();
         assert!(b >= parts && b < parts + 16, "{b} vs {parts}");
         assert_eq!(scene_bytes(COROFEM_MAX_NODES + 1, 1), Err(Status::Capacity));
         assert_eq!(scene_bytes(0, 1), Err(Status::InvalidArgument));

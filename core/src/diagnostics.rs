@@ -39,8 +39,15 @@ impl<S: Storage> Scene<S> {
     pub fn elastic_energy(&mut self) -> f32 {
         let v = self.view();
         let method = v.hdr.settings.method;
-        pass::forces::<false, false>(method, v.hdr.per_young(), v.nodes, v.elems, |_, _, _| {})
-            .energy
+        pass::forces::<false, false>(
+            method,
+            v.hdr.per_young(),
+            v.nodes,
+            v.elems,
+            v.n_elems,
+            |_, _, _| {},
+        )
+        .energy
     }
 
     /// Internal elastic forces on every node (N) into `out` (its first
@@ -55,12 +62,18 @@ impl<S: Storage> Scene<S> {
             *f = [0.0; 3];
         }
         let method = v.hdr.settings.method;
-        let totals =
-            pass::forces::<false, false>(method, v.hdr.per_young(), v.nodes, v.elems, |i, f, _| {
+        let totals = pass::forces::<false, false>(
+            method,
+            v.hdr.per_young(),
+            v.nodes,
+            v.elems,
+            v.n_elems,
+            |i, f, _| {
                 if let Some(o) = out.get_mut(i) {
                     *o = add(*o, f);
                 }
-            });
+            },
+        );
         Ok(totals.inverted)
     }
 
@@ -87,7 +100,7 @@ impl<S: Storage> Scene<S> {
             w.d = *x;
             w.q = [0.0; 3];
         }
-        pass::stiffness(v.hdr.per_young(), v.elems, v.work);
+        pass::stiffness(v.hdr.per_young(), v.elems, v.n_elems, v.work);
         for (o, w) in out.iter_mut().zip(v.work.iter()) {
             *o = w.q;
         }

@@ -44,8 +44,10 @@
 //! let mut tets = [[0u32; 4]; 240];
 //! let (n, t) = mesh.generate(&mut nodes, &mut tets).unwrap();
 //!
-//! static mut SCENE: StaticScene<99, 240> = StaticScene::new(); // fits in a static
-//! let mut scene: StaticScene<99, 240> = StaticScene::new();
+//! // Elements are stored in blocks: `element_blocks` sizes them for 240.
+//! type Beam = StaticScene<99, { corofem::element_blocks(240) }>;
+//! static mut SCENE: Beam = Beam::new(); // fits in a static
+//! let mut scene = Beam::new();
 //! let material = Material { young: 1.0e6, poisson: 0.3, density: 1000.0 };
 //! scene.build(&nodes[..n], &tets[..t], &material, BuildOptions::default()).unwrap();
 //! let fixed: Vec<u32> = (0..n as u32).filter(|&i| nodes[i as usize][0] == 0.0).collect();
@@ -82,7 +84,6 @@
 mod cg;
 mod element;
 mod error;
-#[cfg(any(feature = "qr", feature = "qr-rest-b"))]
 mod lanes;
 mod material;
 mod math;
@@ -102,7 +103,11 @@ mod statics;
 #[cfg(feature = "tool")]
 mod tool;
 
-pub use element::{Element, Method};
+pub use element::{element_blocks, ElementBlock, Method};
+/// Elements per [`ElementBlock`] on this target: 8 where the element passes
+/// run in vector lanes (x86, x86_64, AArch64, wasm32 with `simd128`), 1
+/// elsewhere (e.g. a Cortex-M4F).
+pub const ELEMENTS_PER_BLOCK: usize = lanes::LANES;
 pub use error::{Error, StepError};
 #[cfg(feature = "ground")]
 pub use ground::Plane;

@@ -1,7 +1,8 @@
 //! The scene: a validated mesh, its material and state, and the public API.
 
-use crate::element::{qr, Element, Method};
+use crate::element::{element_blocks, qr, Element, ElementBlock, Method};
 use crate::error::{Error, StepError};
+use crate::lanes::LANES;
 use crate::material::{
     element_stiffness, lame, lame_per_young, validate_poisson, validate_young, Material,
 };
@@ -90,10 +91,11 @@ pub struct Scene<S: Storage> {
 }
 
 /// A scene in fixed-capacity arrays: up to `N` nodes (at most 65 536) and
-/// `T` tetrahedra.
-pub type StaticScene<const N: usize, const T: usize> = Scene<ArrayStorage<N, T>>;
+/// `B` element blocks, that is `B × ELEMENTS_PER_BLOCK` tetrahedra; write
+/// `StaticScene<N, { corofem::element_blocks(T) }>` for `T` tetrahedra.
+pub type StaticScene<const N: usize, const B: usize> = Scene<ArrayStorage<N, B>>;
 
-impl<const N: usize, const T: usize> Scene<ArrayStorage<N, T>> {
+impl<const N: usize, const B: usize> Scene<ArrayStorage<N, B>> {
     /// An empty scene, in `const` context.
     #[must_use]
     pub const fn new() -> Self {
@@ -104,7 +106,7 @@ impl<const N: usize, const T: usize> Scene<ArrayStorage<N, T>> {
     }
 }
 
-impl<const N: usize, const T: usize> Default for Scene<ArrayStorage<N, T>> {
+impl<const N: usize, const B: usize> Default for Scene<ArrayStorage<N, B>> {
     fn default() -> Self {
         Self::new()
     }
@@ -115,7 +117,10 @@ pub(crate) struct View<'a> {
     pub(crate) hdr: &'a mut Header,
     pub(crate) nodes: &'a mut [Node],
     pub(crate) work: &'a mut [NodeWork],
-    pub(crate) elems: &'a mut [Element],
+    /// The blocks holding the scene's elements.
+    pub(crate) elems: &'a mut [ElementBlock],
+    /// Number of elements (the last block may be partly used).
+    pub(crate) n_elems: usize,
 }
 
 /// Largest node count that `u16` indices address.
@@ -136,10 +141,10 @@ impl<S: Storage> Scene<S> {
         self.store.parts().0.len().min(MAX_U16_NODES)
     }
 
-    /// Element capacity of the storage.
+    /// Element capacity of the storage (blocks × elements per block).
     #[must_use]
     pub fn element_capacity(&self) -> usize {
-        self.store.parts().1.len()
+        self.store.parts().1.len().saturating_mul(LANES)
     }
 
     #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
@@ -150,7 +155,8 @@ impl<S: Storage> Scene<S> {
             hdr: &mut self.hdr,
             nodes: nodes.get_mut(..n).unwrap_or_default(),
             work: work.get_mut(..n).unwrap_or_default(),
-            elems: elems.get_mut(..e).unwrap_or_default(),
+            elems: elems.get_mut(..element_blocks(e)).unwrap_or_default(),
+            n_elems: e,
         }
     }
 
@@ -162,12 +168,16 @@ impl<S: Storage> Scene<S> {
             .unwrap_or_default()
     }
 
-    fn elems(&self) -> &[Element] {
+    /// Element `e`, if the scene has it.
+    fn element(&self, e: usize) -> Option<Element> {
+        if e >= self.hdr.n_elems {
+            return None;
+        }
         self.store
             .parts()
             .1
-            .get(..self.hdr.n_elems)
-            .unwrap_or_default()
+            .get(e / LANES)
+            .map(|b| b.get(e % LANES))
     }
 
     /// Builds the scene from node positions (m) and tetrahedra (node indices),
@@ -267,13 +277,16 @@ impl<S: Storage> Scene<S> {
         for w in work.iter_mut() {
             *w = NodeWork::EMPTY;
         }
-        for ((e, tet), slot) in tets.iter().enumerate().zip(elems.iter_mut()) {
+        for (e, tet) in tets.iter().enumerate() {
+            let Some(block) = elems.get_mut(e / LANES) else {
+                break; // capacity checked above
+            };
             // Validated above: `oriented` cannot fail here.
             let t = oriented(e, tet, positions, options).unwrap_or([0; 4]);
             let (frame, six_v0) = rest_frame(positions, &t);
             let stiffness = element_stiffness(material.young, six_v0);
             let grad = rest_gradients(positions, &t, &frame, lame(stiffness, per_young));
-            *slot = Element {
+            let el = Element {
                 nodes: [t[0] as u16, t[1] as u16, t[2] as u16, t[3] as u16],
                 rest: frame.local,
                 stiffness,
@@ -283,6 +296,7 @@ impl<S: Storage> Scene<S> {
                 #[cfg(feature = "polar")]
                 rot: crate::element::polar::IDENTITY,
             };
+            block.set(e % LANES, &el);
             let quarter = material.density * six_v0 * (1.0 / 24.0);
             for i in t {
                 if let Some(n) = nodes.get_mut(i as usize) {
@@ -328,8 +342,8 @@ impl<S: Storage> Scene<S> {
         settings.validate()?;
         #[cfg(feature = "polar")]
         if settings.method == Method::Polar && self.hdr.settings.method != Method::Polar {
-            for el in self.view().elems.iter_mut() {
-                el.rot = crate::element::polar::IDENTITY;
+            for block in self.view().elems.iter_mut() {
+                block.rot = ElementBlock::EMPTY.rot;
             }
         }
         self.hdr.settings = settings;
@@ -399,7 +413,7 @@ impl<S: Storage> Scene<S> {
     /// Node indices of element `e` (as stored: re-oriented if asked).
     #[must_use]
     pub fn element_nodes(&self, e: usize) -> Option<[u16; 4]> {
-        self.elems().get(e).map(|el| el.nodes)
+        self.element(e).map(|el| el.nodes)
     }
 
     /// Young's modulus of element `e` (Pa). An element keeps `E / (36 V₀)`,
@@ -407,15 +421,13 @@ impl<S: Storage> Scene<S> {
     /// (a few units in the last place).
     #[must_use]
     pub fn young(&self, e: usize) -> Option<f32> {
-        self.elems()
-            .get(e)
-            .map(|el| el.stiffness * (6.0 * el.six_v0()))
+        self.element(e).map(|el| el.stiffness * (6.0 * el.six_v0()))
     }
 
     /// Rest volume of element `e` (m³).
     #[must_use]
     pub fn rest_volume(&self, e: usize) -> Option<f32> {
-        self.elems().get(e).map(|el| el.six_v0() * (1.0 / 6.0))
+        self.element(e).map(|el| el.six_v0() * (1.0 / 6.0))
     }
 
     /// Elements with negative volume at the start of the last step.
@@ -430,15 +442,15 @@ impl<S: Storage> Scene<S> {
         validate_young(young)?;
         let per_young = lame_per_young(self.hdr.poisson);
         let el = self
-            .view()
-            .elems
-            .get_mut(e)
+            .element(e)
             .ok_or(Error::ElementOutOfRange { element: e })?;
         let stiffness = element_stiffness(young, el.six_v0());
         if !lame_finite(stiffness, per_young) {
             return Err(Error::InvalidParameter { name: "young" });
         }
-        el.stiffness = stiffness;
+        if let Some(block) = self.view().elems.get_mut(e / LANES) {
+            block.set_stiffness(e % LANES, stiffness);
+        }
         Ok(())
     }
 
@@ -450,8 +462,12 @@ impl<S: Storage> Scene<S> {
         if !self.lame_fits(Some(young), self.hdr.poisson) {
             return Err(Error::InvalidParameter { name: "young" });
         }
-        for el in self.view().elems.iter_mut() {
-            el.stiffness = element_stiffness(young, el.six_v0());
+        let v = self.view();
+        for e in 0..v.n_elems {
+            if let Some(block) = v.elems.get_mut(e / LANES) {
+                let six_v0 = block.get(e % LANES).six_v0();
+                block.set_stiffness(e % LANES, element_stiffness(young, six_v0));
+            }
         }
         Ok(())
     }
@@ -471,9 +487,11 @@ impl<S: Storage> Scene<S> {
     /// `young` (or each element's own) and Poisson ratio `poisson`.
     fn lame_fits(&self, young: Option<f32>, poisson: f32) -> bool {
         let per_young = lame_per_young(poisson);
-        self.elems().iter().all(|el| {
-            let stiffness = young.map_or(el.stiffness, |y| element_stiffness(y, el.six_v0()));
-            lame_finite(stiffness, per_young)
+        (0..self.hdr.n_elems).all(|e| {
+            self.element(e).is_none_or(|el| {
+                let stiffness = young.map_or(el.stiffness, |y| element_stiffness(y, el.six_v0()));
+                lame_finite(stiffness, per_young)
+            })
         })
     }
 

@@ -108,19 +108,25 @@ impl<S: Storage> Scene<S> {
         }
         let s = v.hdr.settings;
         let per_young = v.hdr.per_young();
-        let (nodes, work, elems) = (v.nodes, v.work, v.elems);
+        let (nodes, work, elems, n_elems) = (v.nodes, v.work, v.elems, v.n_elems);
         let mut last = NewtonStats::default();
         for iteration in 0..cfg.max_iterations.max(1) {
             for w in work.iter_mut() {
                 *w = NodeWork::EMPTY;
             }
-            let totals =
-                pass::forces::<false, true>(s.method, per_young, nodes, elems, |i, f, _| {
+            let totals = pass::forces::<false, true>(
+                s.method,
+                per_young,
+                nodes,
+                elems,
+                n_elems,
+                |i, f, _| {
                     if let Some(w) = work.get_mut(i) {
                         w.r = add(w.r, f);
                     }
-                });
-            pass::stiffness_diagonal(per_young, elems, |i, d| {
+                },
+            );
+            pass::stiffness_diagonal(per_young, elems, n_elems, |i, d| {
                 if let Some(w) = work.get_mut(i) {
                     w.inv_p += d;
                 }
@@ -168,7 +174,7 @@ impl<S: Storage> Scene<S> {
             };
             if !last.converged {
                 let apply = |work: &mut [NodeWork]| {
-                    pass::stiffness(per_young, elems, work);
+                    pass::stiffness(per_young, elems, n_elems, work);
                     let mut dq = 0.0f32;
                     for (_n, w) in nodes.iter().zip(work.iter_mut()) {
                         // K d = −(−K d), plus the tool spring.

@@ -36,6 +36,7 @@ pub(crate) fn step(v: View<'_>) -> Result<StepStats, StepError> {
         nodes,
         work,
         elems,
+        n_elems,
     } = v;
     let s = hdr.settings;
     let per_young = hdr.per_young();
@@ -52,12 +53,13 @@ pub(crate) fn step(v: View<'_>) -> Result<StepStats, StepError> {
         w.r = [0.0; 3];
         w.q = [0.0; 3];
     }
-    let totals = pass::forces::<true, true>(s.method, per_young, nodes, elems, |i, f, kv| {
-        if let Some(w) = work.get_mut(i) {
-            w.r = add(w.r, f);
-            w.q = add(w.q, kv);
-        }
-    });
+    let totals =
+        pass::forces::<true, true>(s.method, per_young, nodes, elems, n_elems, |i, f, kv| {
+            if let Some(w) = work.get_mut(i) {
+                w.r = add(w.r, f);
+                w.q = add(w.q, kv);
+            }
+        });
     hdr.inverted = totals.inverted;
 
     // Node pass: right-hand side, preconditioner, constraints, initial guess.
@@ -177,7 +179,7 @@ pub(crate) fn step(v: View<'_>) -> Result<StepStats, StepError> {
         // into q = 0; returns dᵀ A d.
         #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
         |work: &mut [NodeWork]| {
-            pass::stiffness(per_young, elems, work);
+            pass::stiffness(per_young, elems, n_elems, work);
             let mut dq = 0.0f32;
             for (n, w) in nodes.iter().zip(work.iter_mut()) {
                 #[allow(unused_mut)] // only the tool adds to it

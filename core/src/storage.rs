@@ -1,8 +1,11 @@
 //! Where a scene's data lives. The type that owns storage knows the capacity
-//! (`ArrayStorage<N, T>`, usable in a `static`); everything else works on
-//! slices, so the solver is not compiled once per capacity.
+//! (`ArrayStorage<N, B>`, usable in a `static`); everything else works on
+//! slices, so the solver is not compiled once per capacity. Elements are
+//! stored in [`ElementBlock`]s of [`ELEMENTS_PER_BLOCK`](crate::ELEMENTS_PER_BLOCK)
+//! elements each; [`element_blocks`](crate::element_blocks) gives how many a
+//! mesh needs.
 
-use crate::element::Element;
+use crate::element::ElementBlock;
 use crate::math::Vec3;
 
 /// Node flag: the node does not move (its velocity change is filtered out).
@@ -103,59 +106,62 @@ impl Default for NodeWork {
     }
 }
 
-/// Storage for a scene: the node, solver-scratch and element slots. The
-/// capacity is the length of the slices.
+/// Storage for a scene: the node, solver-scratch and element-block slots.
+/// The capacity is the length of the slices (times
+/// [`ELEMENTS_PER_BLOCK`](crate::ELEMENTS_PER_BLOCK) for elements).
 pub trait Storage {
-    /// Node and element slots.
-    fn parts(&self) -> (&[Node], &[Element]);
+    /// Node and element-block slots.
+    fn parts(&self) -> (&[Node], &[ElementBlock]);
     /// All slots, mutable.
-    fn parts_mut(&mut self) -> (&mut [Node], &mut [NodeWork], &mut [Element]);
+    fn parts_mut(&mut self) -> (&mut [Node], &mut [NodeWork], &mut [ElementBlock]);
 }
 
 /// Borrowed storage: lets the storage live apart from the scene, e.g. an
 /// `ArrayStorage` in a zero-initialised `static` (`.bss`) while the scene
 /// header stays on the stack.
 impl<S: Storage + ?Sized> Storage for &mut S {
-    fn parts(&self) -> (&[Node], &[Element]) {
+    fn parts(&self) -> (&[Node], &[ElementBlock]) {
         (**self).parts()
     }
-    fn parts_mut(&mut self) -> (&mut [Node], &mut [NodeWork], &mut [Element]) {
+    fn parts_mut(&mut self) -> (&mut [Node], &mut [NodeWork], &mut [ElementBlock]) {
         (**self).parts_mut()
     }
 }
 
-/// Fixed-capacity storage in plain arrays: up to `N` nodes and `T` tetrahedra.
+/// Fixed-capacity storage in plain arrays: up to `N` nodes and `B` element
+/// blocks, that is `B × ELEMENTS_PER_BLOCK` tetrahedra; size `B` with
+/// [`element_blocks`](crate::element_blocks).
 /// `const fn new` lets a whole scene live in a `static`.
 #[derive(Clone, Debug)]
-pub struct ArrayStorage<const N: usize, const T: usize> {
+pub struct ArrayStorage<const N: usize, const B: usize> {
     nodes: [Node; N],
     work: [NodeWork; N],
-    elems: [Element; T],
+    elems: [ElementBlock; B],
 }
 
-impl<const N: usize, const T: usize> ArrayStorage<N, T> {
+impl<const N: usize, const B: usize> ArrayStorage<N, B> {
     /// Empty storage.
     #[must_use]
     pub const fn new() -> Self {
         Self {
             nodes: [Node::EMPTY; N],
             work: [NodeWork::EMPTY; N],
-            elems: [Element::EMPTY; T],
+            elems: [ElementBlock::EMPTY; B],
         }
     }
 }
 
-impl<const N: usize, const T: usize> Default for ArrayStorage<N, T> {
+impl<const N: usize, const B: usize> Default for ArrayStorage<N, B> {
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl<const N: usize, const T: usize> Storage for ArrayStorage<N, T> {
-    fn parts(&self) -> (&[Node], &[Element]) {
+impl<const N: usize, const B: usize> Storage for ArrayStorage<N, B> {
+    fn parts(&self) -> (&[Node], &[ElementBlock]) {
         (&self.nodes, &self.elems)
     }
-    fn parts_mut(&mut self) -> (&mut [Node], &mut [NodeWork], &mut [Element]) {
+    fn parts_mut(&mut self) -> (&mut [Node], &mut [NodeWork], &mut [ElementBlock]) {
         (&mut self.nodes, &mut self.work, &mut self.elems)
     }
 }
@@ -167,12 +173,17 @@ impl<const N: usize, const T: usize> Storage for ArrayStorage<N, T> {
 pub struct SliceStorage<'a> {
     nodes: &'a mut [Node],
     work: &'a mut [NodeWork],
-    elems: &'a mut [Element],
+    elems: &'a mut [ElementBlock],
 }
 
 impl<'a> SliceStorage<'a> {
-    /// Wraps caller-owned slots.
-    pub fn new(nodes: &'a mut [Node], work: &'a mut [NodeWork], elems: &'a mut [Element]) -> Self {
+    /// Wraps caller-owned slots (`elems`: [`element_blocks`](crate::element_blocks)
+    /// of the element count).
+    pub fn new(
+        nodes: &'a mut [Node],
+        work: &'a mut [NodeWork],
+        elems: &'a mut [ElementBlock],
+    ) -> Self {
         let n = nodes.len().min(work.len());
         let (nodes, _) = nodes.split_at_mut(n);
         let (work, _) = work.split_at_mut(n);
@@ -181,10 +192,10 @@ impl<'a> SliceStorage<'a> {
 }
 
 impl Storage for SliceStorage<'_> {
-    fn parts(&self) -> (&[Node], &[Element]) {
+    fn parts(&self) -> (&[Node], &[ElementBlock]) {
         (self.nodes, self.elems)
     }
-    fn parts_mut(&mut self) -> (&mut [Node], &mut [NodeWork], &mut [Element]) {
+    fn parts_mut(&mut self) -> (&mut [Node], &mut [NodeWork], &mut [ElementBlock]) {
         (self.nodes, self.work, self.elems)
     }
 }
@@ -194,7 +205,8 @@ mod tests {
     use super::*;
 
     /// The storage the core keeps, per feature set (the numbers the docs and
-    /// the benchmark report quote): an element is 72 bytes with `qr`, plus the
+    /// the benchmark report quote): an element is 72 bytes with `qr` (a block
+    /// holds `ELEMENTS_PER_BLOCK` of them, without padding), plus the
     /// rest gradients (36) for `polar`/`linear` and the rotation (16) for
     /// `polar`; a node is 44 + 52 bytes, plus 12 for each of `tool` and `loads`.
     /// CI runs this with `qr` alone, with the firmware's set and with `full`.
@@ -206,7 +218,10 @@ mod tests {
             0
         };
         let rot = if cfg!(feature = "polar") { 16 } else { 0 };
-        assert_eq!(core::mem::size_of::<Element>(), 72 + rest_grad + rot);
+        assert_eq!(
+            core::mem::size_of::<ElementBlock>(),
+            (72 + rest_grad + rot) * crate::ELEMENTS_PER_BLOCK
+        );
         let tool = if cfg!(feature = "tool") { 12 } else { 0 };
         let loads = if cfg!(feature = "loads") { 12 } else { 0 };
         assert_eq!(core::mem::size_of::<Node>(), 44 + tool + loads);

@@ -15,8 +15,9 @@ use corofem::{BuildOptions, Settings, StaticScene};
 use libfuzzer_sys::fuzz_target;
 
 const N: usize = 16;
-const T: usize = 12;
-type Small = StaticScene<N, T>;
+/// Element capacity: 12 rounded up to whole blocks (16 on x86_64).
+const T: usize = corofem::element_blocks(12) * corofem::ELEMENTS_PER_BLOCK;
+type Small = StaticScene<N, { corofem::element_blocks(T) }>;
 
 fuzz_target!(|data: &[u8]| {
     let _ = run(&mut Unstructured::new(data));

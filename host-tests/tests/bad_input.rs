@@ -6,7 +6,7 @@ use corofem::{
 };
 use corofem_host_tests::box_mesh;
 
-type Small = StaticScene<64, 128>;
+type Small = StaticScene<64, { corofem::element_blocks(128) }>;
 
 /// A built, stepped scene and a fingerprint of everything observable.
 fn scene() -> Small {

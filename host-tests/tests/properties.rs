@@ -324,8 +324,9 @@ struct BuildCase {
 /// Node capacity of the build property's scene.
 const CAP_N: usize = 12;
 /// Element capacity of the build property's scene.
-const CAP_T: usize = 10;
-type BuildScene = StaticScene<CAP_N, CAP_T>;
+/// Ten elements, rounded up to whole blocks (16 on x86_64, 10 with one lane).
+const CAP_T: usize = corofem::element_blocks(10) * corofem::ELEMENTS_PER_BLOCK;
+type BuildScene = StaticScene<CAP_N, { corofem::element_blocks(CAP_T) }>;
 
 /// A "node soup": nodes from [`node_recipe`] and tetrahedra on random indices.
 fn soup_case() -> impl Strategy<Value = BuildCase> {

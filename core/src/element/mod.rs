@@ -2,12 +2,16 @@
 //! method. Each method is a cargo feature, so a firmware image that uses one
 //! method carries only that kernel.
 
+mod block;
 pub(crate) mod hform;
 #[cfg(feature = "linear")]
 mod linear;
 #[cfg(feature = "polar")]
 pub(crate) mod polar;
 pub(crate) mod qr;
+
+pub use block::{element_blocks, ElementBlock};
+pub(crate) use block::{lane3, Batch};
 
 use crate::math::{add, Vec3};
 
@@ -115,10 +119,9 @@ pub(crate) struct ElementForces {
     pub(crate) inverted: bool,
 }
 
-/// Per-element storage (72 bytes with `Qr` only; +36 with `polar` or
-/// `linear` for the rest world gradients; +16 with `polar` for the rotation).
+/// One element's data as a value: what an [`ElementBlock`] keeps in each lane.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Element {
+pub(crate) struct Element {
     /// Node indices `a, b, c, d`.
     pub(crate) nodes: [u16; 4],
     /// Rest local coordinates `[xb, xc, yc, xd, yd, zd]` in the QR frame (m).
@@ -139,7 +142,8 @@ pub struct Element {
 
 impl Element {
     /// An unused slot.
-    pub const EMPTY: Self = Self {
+    #[cfg(test)]
+    pub(crate) const EMPTY: Self = Self {
         nodes: [0; 4],
         rest: [0.0; 6],
         stiffness: 0.0,
@@ -162,12 +166,6 @@ impl Element {
     #[must_use]
     pub(crate) fn lame(&self, per_young: [f32; 2]) -> [f32; 2] {
         crate::material::lame(self.stiffness, per_young)
-    }
-}
-
-impl Default for Element {
-    fn default() -> Self {
-        Self::EMPTY
     }
 }
 

@@ -9,7 +9,7 @@
 //! the "rotation" is not one: the question is what that does to a body.
 
 use corofem::{
-    BoxMesh, BuildOptions, Element, Material, Node, NodeWork, Scene, Settings, SliceStorage,
+    BoxMesh, BuildOptions, ElementBlock, Material, Node, NodeWork, Scene, Settings, SliceStorage,
 };
 use std::time::Instant;
 
@@ -49,7 +49,7 @@ fn scene(setup: impl Fn(&mut Scene<SliceStorage<'_>>, &[[f32; 3]])) -> Outcome {
     let (mut n, mut w, mut e) = (
         vec![Node::EMPTY; nodes.len()],
         vec![NodeWork::EMPTY; nodes.len()],
-        vec![Element::EMPTY; tets.len()],
+        vec![ElementBlock::EMPTY; corofem::element_blocks(tets.len())],
     );
     let mut s = Scene::with_storage(SliceStorage::new(&mut n, &mut w, &mut e));
     let material = Material {

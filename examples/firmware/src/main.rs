@@ -20,7 +20,7 @@ mod measure;
 #[allow(dead_code)] // SIZES and REFERENCE are for the host test and CI
 mod scene;
 
-use corofem::{BoxMesh, Element, Node, NodeWork, Scene, SliceStorage, Vec3};
+use corofem::{element_blocks, BoxMesh, ElementBlock, Node, NodeWork, Scene, SliceStorage, Vec3};
 use cortex_m_rt::entry;
 use cortex_m_semihosting::debug::{self, EXIT_FAILURE, EXIT_SUCCESS};
 
@@ -35,6 +35,8 @@ const MESH: BoxMesh = scene::mesh(CELLS);
 const N: usize = MESH.node_count();
 /// Element capacity: exactly the mesh.
 const T: usize = MESH.tet_count();
+/// Element blocks for `T` elements (one element per block on this target).
+const B: usize = element_blocks(T);
 
 /// Steps timed with 1 CG iteration after the run, to split the cost of a
 /// step into its element/node passes and its CG iterations.
@@ -52,7 +54,7 @@ fn main() -> ! {
     // so the whole scene would go to .data and be copied from flash.)
     static mut NODES: [Node; N] = [Node::EMPTY; N];
     static mut WORK: [NodeWork; N] = [NodeWork::EMPTY; N];
-    static mut ELEMS: [Element; T] = [Element::EMPTY; T];
+    static mut ELEMS: [ElementBlock; B] = [ElementBlock::EMPTY; B];
     let mut scene = Scene::with_storage(SliceStorage::new(NODES, WORK, ELEMS));
     let ok = run(&mut scene);
     debug::exit(if ok { EXIT_SUCCESS } else { EXIT_FAILURE });

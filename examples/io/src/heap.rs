@@ -2,7 +2,7 @@
 //! read mesh to the core's input types — for host programs and tests whose
 //! meshes are only known at run time.
 
-use corofem::{Element, Node, NodeWork, Scene, Storage};
+use corofem::{element_blocks, ElementBlock, Node, NodeWork, Scene, Storage};
 
 use crate::Mesh;
 
@@ -11,7 +11,7 @@ use crate::Mesh;
 pub struct HeapStorage {
     nodes: Vec<Node>,
     work: Vec<NodeWork>,
-    elems: Vec<Element>,
+    elems: Vec<ElementBlock>,
 }
 
 impl HeapStorage {
@@ -20,16 +20,16 @@ impl HeapStorage {
         Self {
             nodes: vec![Node::EMPTY; nodes],
             work: vec![NodeWork::EMPTY; nodes],
-            elems: vec![Element::EMPTY; elems],
+            elems: vec![ElementBlock::EMPTY; element_blocks(elems)],
         }
     }
 }
 
 impl Storage for HeapStorage {
-    fn parts(&self) -> (&[Node], &[Element]) {
+    fn parts(&self) -> (&[Node], &[ElementBlock]) {
         (&self.nodes, &self.elems)
     }
-    fn parts_mut(&mut self) -> (&mut [Node], &mut [NodeWork], &mut [Element]) {
+    fn parts_mut(&mut self) -> (&mut [Node], &mut [NodeWork], &mut [ElementBlock]) {
         (&mut self.nodes, &mut self.work, &mut self.elems)
     }
 }

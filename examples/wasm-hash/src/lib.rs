@@ -9,7 +9,7 @@
 #[path = "../../firmware/src/scene.rs"]
 mod scene;
 
-use corofem::{Element, Node, NodeWork, Scene, SliceStorage};
+use corofem::{element_blocks, ElementBlock, Node, NodeWork, Scene, SliceStorage};
 
 /// Node and element capacity: the largest of `scene::SIZES`.
 const CAPACITY: (usize, usize) = {
@@ -36,7 +36,7 @@ const T: usize = CAPACITY.1;
 pub extern "C" fn scene_hash(cx: u32, cy: u32, cz: u32) -> u64 {
     let mut nodes = [Node::EMPTY; N];
     let mut work = [NodeWork::EMPTY; N];
-    let mut elems = [Element::EMPTY; T];
+    let mut elems = [ElementBlock::EMPTY; element_blocks(T)];
     let mut mesh_nodes = [[0.0f32; 3]; N];
     let mut mesh_tets = [[0u32; 4]; T];
     let mut s = Scene::with_storage(SliceStorage::new(&mut nodes, &mut work, &mut elems));

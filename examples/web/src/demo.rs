@@ -10,7 +10,7 @@
 use std::collections::HashMap;
 
 use corofem::{
-    BoxMesh, BuildOptions, Element, Material, Method, Node, NodeWork, Plane, Scene, Settings,
+    BoxMesh, BuildOptions, ElementBlock, Material, Method, Node, NodeWork, Plane, Scene, Settings,
     Storage,
 };
 
@@ -19,7 +19,7 @@ use corofem::{
 pub struct VecStorage {
     nodes: Vec<Node>,
     work: Vec<NodeWork>,
-    elems: Vec<Element>,
+    elems: Vec<ElementBlock>,
 }
 
 impl VecStorage {
@@ -28,16 +28,16 @@ impl VecStorage {
         Self {
             nodes: vec![Node::EMPTY; nodes],
             work: vec![NodeWork::EMPTY; nodes],
-            elems: vec![Element::EMPTY; elems],
+            elems: vec![ElementBlock::EMPTY; corofem::element_blocks(elems)],
         }
     }
 }
 
 impl Storage for VecStorage {
-    fn parts(&self) -> (&[Node], &[Element]) {
+    fn parts(&self) -> (&[Node], &[ElementBlock]) {
         (&self.nodes, &self.elems)
     }
-    fn parts_mut(&mut self) -> (&mut [Node], &mut [NodeWork], &mut [Element]) {
+    fn parts_mut(&mut self) -> (&mut [Node], &mut [NodeWork], &mut [ElementBlock]) {
         (&mut self.nodes, &mut self.work, &mut self.elems)
     }
 }
