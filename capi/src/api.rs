@@ -286,6 +286,9 @@ pub unsafe extern "C" fn corofem_build(
             poisson: mat.poisson,
             density: mat.density,
         };
+        if tets.len() > s.max_tets {
+            return Err(Status::Capacity.into());
+        }
         match s.scene.build(pos, tets, &material, options) {
             Ok(()) => {
                 s.built = true;

@@ -43,6 +43,10 @@ pub struct SceneHandle {
     /// The caller's whole buffer `[start, end)`: arrays passed in or out
     /// must not overlap it.
     buffer: (usize, usize),
+    /// The element capacity the caller asked for. The storage holds whole
+    /// element blocks, which can be a few elements more; builds are held to
+    /// this number so that a scene behaves the same on every target.
+    pub(crate) max_tets: usize,
     /// Whether a build has succeeded.
     pub(crate) built: bool,
     /// Steps taken since the build.
@@ -150,6 +154,7 @@ pub unsafe fn init(
             magic: MAGIC,
             this: handle as usize,
             buffer: (start, end),
+            max_tets,
             built: false,
             steps: 0,
             last: StepStats::default(),
