@@ -18,7 +18,7 @@ use crate::math::Vec3;
 /// Values of a block, one per lane.
 pub(crate) type Batch = Lanes<LANES>;
 
-/// Storage of up to [`LANES`] elements (72 bytes per element with `Qr`
+/// Storage of up to [`ELEMENTS_PER_BLOCK`](crate::ELEMENTS_PER_BLOCK) elements (72 bytes per element with `Qr`
 /// only; +36 with `polar` or `linear` for the rest world gradients; +16 with
 /// `polar` for the rotation). Lanes past the scene's element count are unused.
 #[derive(Clone, Copy, Debug, PartialEq)]
