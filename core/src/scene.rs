@@ -594,14 +594,23 @@ impl<S: Storage> Scene<S> {
     /// Never panics and never allocates. If the solve produces non-finite
     /// values the step is not applied and [`StepError::Diverged`] is returned.
     ///
-    /// On x86 it is inlined down to the element kernels (`#[inline(always)]`),
-    /// so that a host can compile it for the instruction set it detects at run
-    /// time by calling it from a `#[target_feature]` function (as
-    /// `corofem_io::fast` does); the bits do not depend on the instruction set.
-    /// Elsewhere the compiler decides: on a Cortex-M4F, forced inlining copied
-    /// the step into each caller (flash 37 → 56 kB).
-    #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
+    /// Compiled once per storage type. For run-time instruction-set dispatch
+    /// use [`Scene::step_inline`].
     pub fn step(&mut self) -> Result<StepStats, StepError> {
+        self.step_inline()
+    }
+
+    /// [`Scene::step`], inlined down to the element kernels on x86
+    /// (`#[inline(always)]`), so that a host can compile it for the
+    /// instruction set it detects at run time by calling it from a
+    /// `#[target_feature]` function (as `corofem_io::fast` does); the bits do
+    /// not depend on the instruction set. Each call site gets a copy of the
+    /// whole step: call it from one place. (When `step` itself was forced
+    /// inline, every test calling it compiled its own copy, and `cargo test`
+    /// took minutes longer.) Elsewhere the compiler decides: on a Cortex-M4F,
+    /// forced inlining copied the step into each caller (flash 37 → 56 kB).
+    #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
+    pub fn step_inline(&mut self) -> Result<StepStats, StepError> {
         crate::step::step(self.view())
     }
 

@@ -124,11 +124,20 @@ impl<S: crate::Storage> crate::Scene<S> {
     /// and returns the statistics with the force the body exerts on the tool
     /// (`StepStats::tool_force`, N) — what the device renders. On any error
     /// the target stays where it was, like the rest of the state.
-    #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
     pub fn step_haptic(&mut self, target: Vec3) -> Result<crate::StepStats, crate::StepError> {
+        self.step_haptic_inline(target)
+    }
+
+    /// [`Scene::step_haptic`](crate::Scene::step_haptic) inlined on x86, for run-time instruction-set
+    /// dispatch: see [`Scene::step_inline`](crate::Scene::step_inline).
+    #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
+    pub fn step_haptic_inline(
+        &mut self,
+        target: Vec3,
+    ) -> Result<crate::StepStats, crate::StepError> {
         let previous = self.hdr.tool.target;
         self.set_tool_target(target)?;
-        let stepped = self.step();
+        let stepped = self.step_inline();
         if stepped.is_err() {
             self.hdr.tool.target = previous;
         }

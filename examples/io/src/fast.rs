@@ -2,8 +2,8 @@
 //!
 //! The core is `no_std` and cannot detect CPU features; it is compiled for the
 //! target's baseline (SSE2 on x86_64). [`step`] detects AVX2 at run time and
-//! then runs [`Scene::step`] compiled for it: `Scene::step` (and
-//! `step_haptic`) are `#[inline(always)]` down to the element kernels on x86,
+//! then runs [`Scene::step`] compiled for it: `Scene::step_inline` (and
+//! `step_haptic_inline`) are `#[inline(always)]` down to the element kernels on x86,
 //! so the whole step is instantiated inside the `#[target_feature]` function
 //! below. The arithmetic is the same IEEE operations in the same order either
 //! way (Rust never contracts to FMA and the `fma` feature is not enabled), so
@@ -69,8 +69,8 @@ fn dispatch<S: Storage>(
 #[inline(always)]
 fn run<S: Storage>(scene: &mut Scene<S>, target: Option<Vec3>) -> Result<StepStats, StepError> {
     match target {
-        Some(x) => scene.step_haptic(x),
-        None => scene.step(),
+        Some(x) => scene.step_haptic_inline(x),
+        None => scene.step_inline(),
     }
 }
 
