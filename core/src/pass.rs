@@ -44,21 +44,12 @@ fn scatter(ids: [u16; 4], f: &[Vec3; 3], mut add_to: impl FnMut(usize, Vec3)) {
     add_to(usize::from(ids[3]), f[2]);
 }
 
-/// The blocks holding `count` elements, each with the number of its lanes in
-/// use: `LANES`, except in a last, partial block. One loop, so that each pass
-/// inlines its block body once (two loops, whole blocks then the partial one,
-/// doubled the inlined kernels and the test crates' compile time). With one
-/// lane every block is whole, which the compiler sees: no test per element.
+/// Whole blocks of `count` elements, and the lanes used in the block after
+/// them (0 when `count` is a multiple of [`LANES`]; always 0 with one lane,
+/// so a Cortex-M4F's loop has no partial block to test for).
 #[inline(always)]
-fn blocks<B>(elems: impl Iterator<Item = B>, count: usize) -> impl Iterator<Item = (B, usize)> {
-    let (whole, tail) = (count / LANES, count % LANES);
-    elems
-        .take(whole + usize::from(tail > 0))
-        .enumerate()
-        .map(move |(b, blk)| {
-            let lanes = if LANES == 1 || b < whole { LANES } else { tail };
-            (blk, lanes)
-        })
+fn split(count: usize) -> (usize, usize) {
+    (count / LANES, count % LANES)
 }
 
 /// Elastic forces of the first `count` elements (and, with `WITH_KV`, the
@@ -80,16 +71,30 @@ pub(crate) fn forces<const WITH_KV: bool, const COMMIT: bool>(
     mut add_to: impl FnMut(usize, Vec3, Vec3),
 ) -> PassTotals {
     let mut totals = PassTotals::default();
-    for (blk, lanes) in blocks(elems.iter_mut(), count) {
+    let (whole, tail) = split(count);
+    for blk in elems.iter_mut().take(whole) {
         block::<WITH_KV, COMMIT>(
             method,
             per_young,
             nodes,
             blk,
-            lanes,
+            LANES,
             &mut add_to,
             &mut totals,
         );
+    }
+    if tail > 0 {
+        if let Some(blk) = elems.get_mut(whole) {
+            block::<WITH_KV, COMMIT>(
+                method,
+                per_young,
+                nodes,
+                blk,
+                tail,
+                &mut add_to,
+                &mut totals,
+            );
+        }
     }
     totals
 }
@@ -301,8 +306,14 @@ pub(crate) fn stiffness(
     count: usize,
     work: &mut [NodeWork],
 ) {
-    for (blk, lanes) in blocks(elems.iter(), count) {
-        product_block(per_young, blk, lanes, work);
+    let (whole, tail) = split(count);
+    for blk in elems.iter().take(whole) {
+        product_block(per_young, blk, LANES, work);
+    }
+    if tail > 0 {
+        if let Some(blk) = elems.get(whole) {
+            product_block(per_young, blk, tail, work);
+        }
     }
 }
 
