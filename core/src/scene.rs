@@ -594,10 +594,11 @@ impl<S: Storage> Scene<S> {
     /// Never panics and never allocates. If the solve produces non-finite
     /// values the step is not applied and [`StepError::Diverged`] is returned.
     ///
-    /// Compiled once per storage type. For run-time instruction-set dispatch
-    /// use [`Scene::step_inline`].
+    /// The step itself is compiled once, in this crate, for the target's
+    /// baseline instruction set. For run-time instruction-set dispatch use
+    /// [`Scene::step_inline`].
     pub fn step(&mut self) -> Result<StepStats, StepError> {
-        self.step_inline()
+        crate::step::step(self.view())
     }
 
     /// [`Scene::step`], inlined down to the element kernels on x86
@@ -605,13 +606,13 @@ impl<S: Storage> Scene<S> {
     /// instruction set it detects at run time by calling it from a
     /// `#[target_feature]` function (as `corofem_io::fast` does); the bits do
     /// not depend on the instruction set. Each call site gets a copy of the
-    /// whole step: call it from one place. (When `step` itself was forced
-    /// inline, every test calling it compiled its own copy, and `cargo test`
-    /// took minutes longer.) Elsewhere the compiler decides: on a Cortex-M4F,
+    /// whole step: call it from one place. (When `step` itself was inlined
+    /// into its callers, every test crate compiled its own copy, and `cargo
+    /// test` took minutes longer.) Elsewhere the compiler decides: on a Cortex-M4F,
     /// forced inlining copied the step into each caller (flash 37 → 56 kB).
     #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
     pub fn step_inline(&mut self) -> Result<StepStats, StepError> {
-        crate::step::step(self.view())
+        crate::step::step_inline(self.view())
     }
 
     /// A 64-bit FNV-1a hash of the bits of every displacement and velocity:

@@ -29,8 +29,17 @@ use crate::storage::RELEASED;
 use crate::storage::{Node, NodeWork, CONTACT, FIXED};
 use crate::StepError;
 
-#[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
+/// The step, compiled once in this crate: `Scene::step` of every storage type
+/// calls it, so a crate that steps scenes does not compile its own copy.
 pub(crate) fn step(v: View<'_>) -> Result<StepStats, StepError> {
+    step_inline(v)
+}
+
+/// The step inlined into its caller on x86, for `Scene::step_inline`
+/// (run-time instruction-set dispatch compiles it inside a
+/// `#[target_feature]` function).
+#[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
+pub(crate) fn step_inline(v: View<'_>) -> Result<StepStats, StepError> {
     let View {
         hdr,
         nodes,
