@@ -209,7 +209,7 @@ pub(crate) fn normalize(a: Vec3) -> Option<Vec3> {
 /// Determinant of the 3×3 matrix with columns `a`, `b`, `c`: `a · (b × c)`.
 #[inline]
 #[must_use]
-pub(crate) fn det3(a: Vec3, b: Vec3, c: Vec3) -> f32 {
+pub(crate) fn det3<T: Real>(a: [T; 3], b: [T; 3], c: [T; 3]) -> T {
     dot(a, cross(b, c))
 }
 

@@ -4,7 +4,7 @@
 
 #[cfg(any(feature = "qr", feature = "qr-rest-b"))]
 use crate::element::qr;
-use crate::element::{self, hform, lane3, Batch, Element, ElementBlock, ElementForces, Method};
+use crate::element::{self, hform, lane3, Batch, ElementBlock, ElementForces, Method};
 use crate::lanes::LANES;
 use crate::math::Real;
 use crate::math::{add, neg, sub, Vec3};
@@ -68,225 +68,280 @@ pub(crate) fn forces<const WITH_KV: bool, const COMMIT: bool>(
     nodes: &[Node],
     elems: &mut [ElementBlock],
     count: usize,
-    mut add_to: impl FnMut(usize, Vec3, Vec3),
+    add_to: impl FnMut(usize, Vec3, Vec3),
 ) -> PassTotals {
-    let mut totals = PassTotals::default();
+    let mut pass = ForcePass {
+        method,
+        per_young,
+        nodes,
+        add_to,
+        totals: PassTotals::default(),
+    };
     let (whole, tail) = split(count);
     for blk in elems.iter_mut().take(whole) {
-        block::<WITH_KV, COMMIT>(
-            method,
-            per_young,
-            nodes,
-            blk,
-            LANES,
-            &mut add_to,
-            &mut totals,
-        );
+        pass.block::<WITH_KV, COMMIT>(blk, LANES);
     }
     if tail > 0 {
         if let Some(blk) = elems.get_mut(whole) {
-            block::<WITH_KV, COMMIT>(
-                method,
-                per_young,
-                nodes,
-                blk,
-                tail,
-                &mut add_to,
-                &mut totals,
-            );
+            pass.block::<WITH_KV, COMMIT>(blk, tail);
         }
     }
-    totals
+    pass.totals
 }
 
-/// The force pass of the first `lanes` elements of a block, batched where
-/// the method and the target allow it. A function rather than a closure: it
-/// must be inlined at both of its calls, or a host that compiles the step for
-/// another instruction set would run it compiled for the baseline.
-#[inline(always)]
-fn block<const WITH_KV: bool, const COMMIT: bool>(
+/// What every block of a force pass shares.
+struct ForcePass<'a, F> {
     method: Method,
+    /// The body's [`lame_per_young`](crate::material::lame_per_young).
     per_young: [f32; 2],
-    nodes: &[Node],
-    blk: &mut ElementBlock,
-    lanes: usize,
-    add_to: &mut impl FnMut(usize, Vec3, Vec3),
-    totals: &mut PassTotals,
-) {
-    match method {
-        #[cfg(feature = "qr")]
-        Method::Qr if LANES > 1 => {
-            qr_block::<true, WITH_KV, COMMIT>(per_young, nodes, blk, lanes, add_to, totals);
+    nodes: &'a [Node],
+    /// `add_to(node, f_elastic, minus_k_v)`, see [`forces`].
+    add_to: F,
+    totals: PassTotals,
+}
+
+/// A force kernel run on every lane of a block at once.
+#[cfg(any(feature = "qr", feature = "qr-rest-b", feature = "linear"))]
+trait LaneKernel {
+    /// The kernel for the current edges `cur` and displacement differences
+    /// `du` (m) of the block's elements, with `lame = [λ', μ']`.
+    fn run(
+        du: &[[Batch; 3]; 3],
+        cur: &[[Batch; 3]; 3],
+        blk: &ElementBlock,
+        lame: [Batch; 2],
+    ) -> LaneForces;
+}
+
+/// What a [`LaneKernel`] returns.
+#[cfg(any(feature = "qr", feature = "qr-rest-b", feature = "linear"))]
+struct LaneForces {
+    /// Forces, gradients and energy of every lane.
+    k: element::Kernel<Batch>,
+    /// A value with the sign of each lane's current volume (m³ or m³·m⁻ⁿ).
+    volume: Batch,
+    /// Lanes whose result stands; the others are redone alone by
+    /// [`element::forces`] (the QR frame's fallbacks).
+    regular: [bool; LANES],
+}
+
+/// The QR kernel in lanes (`CURRENT_B` as in [`qr::forces`]).
+#[cfg(any(feature = "qr", feature = "qr-rest-b"))]
+struct QrLanes<const CURRENT_B: bool>;
+
+#[cfg(any(feature = "qr", feature = "qr-rest-b"))]
+impl<const CURRENT_B: bool> LaneKernel for QrLanes<CURRENT_B> {
+    #[inline(always)]
+    fn run(
+        _du: &[[Batch; 3]; 3],
+        cur: &[[Batch; 3]; 3],
+        blk: &ElementBlock,
+        lame: [Batch; 2],
+    ) -> LaneForces {
+        let (fr, [n1, n3]) = qr::frame_regular(cur[0], cur[1], cur[2]);
+        // The frame is `qr::frame`'s exactly where neither squared length it
+        // divided by needs a fallback.
+        let mut regular = [false; LANES];
+        for ((r, a), b) in regular.iter_mut().zip(n1.0).zip(n3.0) {
+            *r = qr::regular(a) && qr::regular(b);
         }
-        #[cfg(feature = "qr-rest-b")]
-        Method::QrRestB if LANES > 1 => {
-            qr_block::<false, WITH_KV, COMMIT>(per_young, nodes, blk, lanes, add_to, totals);
+        LaneForces {
+            k: qr::in_frame::<Batch, CURRENT_B>(&fr, &blk.rest, lame),
+            volume: fr.local[5],
+            regular,
         }
-        _ => one_by_one::<WITH_KV, COMMIT>(method, per_young, nodes, blk, lanes, add_to, totals),
     }
 }
 
-/// The force pass of the first `lanes` elements of a block, one at a time
-/// (every method; the QR methods on targets with one lane).
-#[inline(always)]
-fn one_by_one<const WITH_KV: bool, const COMMIT: bool>(
-    method: Method,
-    per_young: [f32; 2],
-    nodes: &[Node],
-    blk: &mut ElementBlock,
-    lanes: usize,
-    add_to: &mut impl FnMut(usize, Vec3, Vec3),
-    totals: &mut PassTotals,
-) {
-    for j in 0..lanes {
+/// The linear kernel in lanes.
+#[cfg(feature = "linear")]
+struct LinearLanes;
+
+#[cfg(feature = "linear")]
+impl LaneKernel for LinearLanes {
+    #[inline(always)]
+    fn run(
+        du: &[[Batch; 3]; 3],
+        cur: &[[Batch; 3]; 3],
+        blk: &ElementBlock,
+        lame: [Batch; 2],
+    ) -> LaneForces {
+        LaneForces {
+            k: element::linear::kernel(du, &blk.rest_grad, lame),
+            volume: crate::math::det3(cur[0], cur[1], cur[2]),
+            regular: [true; LANES],
+        }
+    }
+}
+
+// Methods: functions rather than closures, inlined at each call, or a host
+// that compiles the step for another instruction set would run them compiled
+// for the baseline.
+impl<F: FnMut(usize, Vec3, Vec3)> ForcePass<'_, F> {
+    /// The first `lanes` elements of a block, batched where the method and
+    /// the target allow it (`Polar`'s iterations are not batched).
+    #[inline(always)]
+    fn block<const WITH_KV: bool, const COMMIT: bool>(
+        &mut self,
+        blk: &mut ElementBlock,
+        lanes: usize,
+    ) {
+        match self.method {
+            #[cfg(feature = "qr")]
+            Method::Qr if LANES > 1 => self.batched::<QrLanes<true>, WITH_KV, COMMIT>(blk, lanes),
+            #[cfg(feature = "qr-rest-b")]
+            Method::QrRestB if LANES > 1 => {
+                self.batched::<QrLanes<false>, WITH_KV, COMMIT>(blk, lanes);
+            }
+            #[cfg(feature = "linear")]
+            Method::Linear if LANES > 1 => {
+                self.batched::<LinearLanes, WITH_KV, COMMIT>(blk, lanes);
+            }
+            _ => self.one_by_one::<WITH_KV, COMMIT>(blk, lanes),
+        }
+    }
+
+    /// The first `lanes` elements of a block, one at a time (every method;
+    /// all of them on targets with one lane).
+    #[inline(always)]
+    fn one_by_one<const WITH_KV: bool, const COMMIT: bool>(
+        &mut self,
+        blk: &mut ElementBlock,
+        lanes: usize,
+    ) {
+        for j in 0..lanes {
+            let Some(n) = gather(self.nodes, blk.nodes(j)) else {
+                continue;
+            };
+            let rest = diffs(&[n[0].x0, n[1].x0, n[2].x0, n[3].x0]);
+            let du = diffs(&[n[0].u, n[1].u, n[2].u, n[3].u]);
+            let vel = [n[0].v, n[1].v, n[2].v, n[3].v];
+            self.one::<WITH_KV, COMMIT>(blk, j, &rest, &du, &vel);
+        }
+    }
+
+    /// Element `j` of a block alone, from its rest edges, displacement
+    /// differences and node velocities.
+    #[inline(always)]
+    fn one<const WITH_KV: bool, const COMMIT: bool>(
+        &mut self,
+        blk: &mut ElementBlock,
+        j: usize,
+        rest: &[Vec3; 3],
+        du: &[Vec3; 3],
+        vel: &[Vec3; 4],
+    ) {
         let mut el = blk.get(j);
-        let Some(n) = gather(nodes, el.nodes) else {
-            continue;
+        let out = element::forces(self.method, &mut el, self.per_young, rest, du);
+        let kv = if WITH_KV {
+            hform::stiffness_product(vel, &out.grad, el.lame(self.per_young))
+        } else {
+            [[0.0; 3]; 3]
         };
-        let rest = diffs(&[n[0].x0, n[1].x0, n[2].x0, n[3].x0]);
-        let du = diffs(&[n[0].u, n[1].u, n[2].u, n[3].u]);
-        let out = element::forces(method, &mut el, per_young, &rest, &du);
-        let vel = [n[0].v, n[1].v, n[2].v, n[3].v];
-        finish::<WITH_KV>(&mut el, per_young, &out, &vel, add_to, totals);
+        el.grad = out.grad;
+        self.emit(&out, el.nodes, &kv);
         if COMMIT {
             blk.set_state(j, &el);
         }
     }
-}
 
-/// Keeps an element's new gradients, counts it, and hands its forces (and
-/// `−K v` of the node velocities `vel`) to `add_to`.
-#[inline(always)]
-fn finish<const WITH_KV: bool>(
-    el: &mut Element,
-    per_young: [f32; 2],
-    out: &ElementForces,
-    vel: &[Vec3; 4],
-    add_to: &mut impl FnMut(usize, Vec3, Vec3),
-    totals: &mut PassTotals,
-) {
-    let kv = if WITH_KV {
-        hform::stiffness_product(vel, &out.grad, el.lame(per_young))
-    } else {
-        [[0.0; 3]; 3]
-    };
-    el.grad = out.grad;
-    tally(out, totals);
-    emit(el.nodes, &out.f, &kv, add_to);
-}
-
-/// Adds an element's energy and inversion to the totals.
-#[inline(always)]
-fn tally(out: &ElementForces, totals: &mut PassTotals) {
-    totals.inverted += u32::from(out.inverted);
-    totals.energy += out.energy;
-}
-
-/// Hands `[f_b, f_c, f_d]` and `f_a = −(f_b + f_c + f_d)` (and the same of
-/// `kv`) to the four nodes, in the order a, b, c, d.
-#[inline(always)]
-fn emit(ids: [u16; 4], f: &[Vec3; 3], kv: &[Vec3; 3], add_to: &mut impl FnMut(usize, Vec3, Vec3)) {
-    let fa = neg(add(add(f[0], f[1]), f[2]));
-    let kva = neg(add(add(kv[0], kv[1]), kv[2]));
-    add_to(usize::from(ids[0]), fa, kva);
-    add_to(usize::from(ids[1]), f[0], kv[0]);
-    add_to(usize::from(ids[2]), f[1], kv[1]);
-    add_to(usize::from(ids[3]), f[2], kv[2]);
-}
-
-/// The QR force pass of the first `lanes` elements of a block, all at once.
-///
-/// Gathers the elements' edges (and velocities) into lanes, runs the QR
-/// kernel on every lane with the block's own rest coordinates and
-/// stiffnesses, then finishes the elements in order exactly as the
-/// one-by-one path does. Lanes are independent and see the same operations,
-/// so the bits are those of the one-by-one path. A lane whose frame needs a
-/// fallback (a collapsed edge or a flat triangle, [`qr::frame`]) is redone
-/// alone; unused lanes are computed and ignored.
-#[cfg(any(feature = "qr", feature = "qr-rest-b"))]
-#[inline(always)]
-fn qr_block<const CURRENT_B: bool, const WITH_KV: bool, const COMMIT: bool>(
-    per_young: [f32; 2],
-    nodes: &[Node],
-    blk: &mut ElementBlock,
-    lanes: usize,
-    add_to: &mut impl FnMut(usize, Vec3, Vec3),
-    totals: &mut PassTotals,
-) {
-    let zero = Batch::splat(0.0);
-    // Gather rest positions, displacements (and velocities) corner by corner
-    // into lanes. A lane whose node index is out of range (ruled out by
-    // `build`) is marked absent and not finished.
-    let mut x0 = [[zero; 3]; 4];
-    let mut u = [[zero; 3]; 4];
-    let mut vel = [[zero; 3]; 4];
-    let mut present = [false; LANES];
-    for p in present.iter_mut().take(lanes) {
-        *p = true;
-    }
-    for (k, ids) in blk.nodes.iter().enumerate() {
-        for (j, (id, p)) in ids.iter().zip(present.iter_mut()).enumerate().take(lanes) {
-            let Some(n) = nodes.get(usize::from(*id)) else {
-                *p = false;
-                continue;
-            };
-            Batch::put(&mut x0[k], j, n.x0);
-            Batch::put(&mut u[k], j, n.u);
-            if WITH_KV {
-                Batch::put(&mut vel[k], j, n.v);
+    /// The first `lanes` elements of a block, all at once with kernel `K`.
+    ///
+    /// Gathers the elements' edges (and velocities) into lanes, runs the
+    /// kernel on every lane with the block's own data, then finishes the
+    /// elements in order exactly as the one-by-one path does. Lanes are
+    /// independent and see the same operations, so the bits are those of the
+    /// one-by-one path. A lane the kernel marks irregular is redone alone;
+    /// unused lanes are computed and ignored.
+    #[cfg(any(feature = "qr", feature = "qr-rest-b", feature = "linear"))]
+    #[inline(always)]
+    fn batched<K: LaneKernel, const WITH_KV: bool, const COMMIT: bool>(
+        &mut self,
+        blk: &mut ElementBlock,
+        lanes: usize,
+    ) {
+        let zero = Batch::splat(0.0);
+        // Gather rest positions, displacements (and velocities) corner by
+        // corner into lanes. A lane whose node index is out of range (ruled
+        // out by `build`) is marked absent and not finished.
+        let mut x0 = [[zero; 3]; 4];
+        let mut u = [[zero; 3]; 4];
+        let mut vel = [[zero; 3]; 4];
+        let mut present = [false; LANES];
+        for p in present.iter_mut().take(lanes) {
+            *p = true;
+        }
+        for (k, ids) in blk.nodes.iter().enumerate() {
+            for (j, (id, p)) in ids.iter().zip(present.iter_mut()).enumerate().take(lanes) {
+                let Some(n) = self.nodes.get(usize::from(*id)) else {
+                    *p = false;
+                    continue;
+                };
+                Batch::put(&mut x0[k], j, n.x0);
+                Batch::put(&mut u[k], j, n.u);
+                if WITH_KV {
+                    Batch::put(&mut vel[k], j, n.v);
+                }
             }
         }
-    }
-    // Rest edges and displacement differences, lane by lane as `diffs`.
-    let rest = [sub(x0[1], x0[0]), sub(x0[2], x0[0]), sub(x0[3], x0[0])];
-    let du = [sub(u[1], u[0]), sub(u[2], u[0]), sub(u[3], u[0])];
-    // The kernel on every lane at once, with `[λ', μ']` formed as
-    // `crate::material::lame` forms them.
-    let lame = [
-        Batch::splat(per_young[0]) * blk.stiffness,
-        Batch::splat(per_young[1]) * blk.stiffness,
-    ];
-    let cur = [
-        add(rest[0], du[0]),
-        add(rest[1], du[1]),
-        add(rest[2], du[2]),
-    ];
-    let (fr, [n1, n3]) = qr::frame_regular(cur[0], cur[1], cur[2]);
-    let k = qr::in_frame::<Batch, CURRENT_B>(&fr, &blk.rest, lame);
-    let kv = if WITH_KV {
-        hform::stiffness_product(&vel, &k.grad, lame)
-    } else {
-        [[zero; 3]; 3]
-    };
-    // Finish in element order.
-    for j in 0..lanes {
-        if !present.get(j).copied().unwrap_or(false) {
-            continue;
-        }
-        let lane = |v: Batch| v.0.get(j).copied().unwrap_or(0.0);
-        if qr::regular(lane(n1)) && qr::regular(lane(n3)) {
-            let out = ElementForces {
-                f: lane3(&k.f, j),
-                grad: lane3(&k.grad, j),
-                energy: lane(k.energy),
-                inverted: lane(fr.local[5]) < 0.0,
-            };
-            if COMMIT {
-                blk.set_grad(j, &out.grad);
-            }
-            tally(&out, totals);
-            emit(blk.nodes(j), &out.f, &lane3(&kv, j), add_to);
+        // Rest edges, displacement differences and current edges, lane by
+        // lane as `diffs` and `element::forces` form them, and `[λ', μ']` as
+        // `crate::material::lame` forms them.
+        let rest = [sub(x0[1], x0[0]), sub(x0[2], x0[0]), sub(x0[3], x0[0])];
+        let du = [sub(u[1], u[0]), sub(u[2], u[0]), sub(u[3], u[0])];
+        let cur = [
+            add(rest[0], du[0]),
+            add(rest[1], du[1]),
+            add(rest[2], du[2]),
+        ];
+        let lame = [
+            Batch::splat(self.per_young[0]) * blk.stiffness,
+            Batch::splat(self.per_young[1]) * blk.stiffness,
+        ];
+        let out = K::run(&du, &cur, blk, lame);
+        let kv = if WITH_KV {
+            hform::stiffness_product(&vel, &out.k.grad, lame)
         } else {
-            // The fallback frame, and −K v with its gradients, alone.
-            let mut el = blk.get(j);
-            let c = lane3(&cur, j);
-            let out = qr::forces::<CURRENT_B>(c[0], c[1], c[2], &el.rest, el.lame(per_young));
-            let vel: [Vec3; 4] = core::array::from_fn(|m| Batch::lane(&vel[m], j));
-            finish::<WITH_KV>(&mut el, per_young, &out, &vel, add_to, totals);
-            if COMMIT {
-                blk.set_state(j, &el);
+            [[zero; 3]; 3]
+        };
+        // Finish in element order.
+        for j in 0..lanes {
+            if !present.get(j).copied().unwrap_or(false) {
+                continue;
             }
+            let vel_j: [Vec3; 4] = core::array::from_fn(|m| Batch::lane(&vel[m], j));
+            if !out.regular.get(j).copied().unwrap_or(false) {
+                self.one::<WITH_KV, COMMIT>(blk, j, &lane3(&rest, j), &lane3(&du, j), &vel_j);
+                continue;
+            }
+            let lane = |v: Batch| v.0.get(j).copied().unwrap_or(0.0);
+            let f = ElementForces {
+                f: lane3(&out.k.f, j),
+                grad: lane3(&out.k.grad, j),
+                energy: lane(out.k.energy),
+                inverted: lane(out.volume) < 0.0,
+            };
+            if COMMIT {
+                blk.set_grad(j, &f.grad);
+            }
+            self.emit(&f, blk.nodes(j), &lane3(&kv, j));
         }
+    }
+
+    /// Counts an element's energy and inversion, and hands `[f_b, f_c, f_d]`
+    /// and `f_a = −(f_b + f_c + f_d)` (and the same of `kv`) to the four
+    /// nodes `ids`, in the order a, b, c, d.
+    #[inline(always)]
+    fn emit(&mut self, out: &ElementForces, ids: [u16; 4], kv: &[Vec3; 3]) {
+        self.totals.inverted += u32::from(out.inverted);
+        self.totals.energy += out.energy;
+        let f = &out.f;
+        let fa = neg(add(add(f[0], f[1]), f[2]));
+        let kva = neg(add(add(kv[0], kv[1]), kv[2]));
+        (self.add_to)(usize::from(ids[0]), fa, kva);
+        (self.add_to)(usize::from(ids[1]), f[0], kv[0]);
+        (self.add_to)(usize::from(ids[2]), f[1], kv[1]);
+        (self.add_to)(usize::from(ids[3]), f[2], kv[2]);
     }
 }
 
@@ -403,14 +458,21 @@ pub(crate) fn stiffness_diagonal(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::element::qr;
+    use crate::element::{qr, Element};
 
     /// Twenty elements (two whole batches of eight and four left over) over
     /// a shared cloud of nodes, some of them crushed flat or to a point so
-    /// that their lanes need the frame's fallbacks: the batched pass must
-    /// give every node the bits of the element-by-element computation.
+    /// that their lanes need the QR frame's fallbacks: for every method, the
+    /// batched pass must give every node the bits of the element-by-element
+    /// computation.
     #[test]
     fn batched_forces_are_the_bits_of_one_by_one() {
+        for &method in Method::ALL {
+            batched_against_one_by_one(method);
+        }
+    }
+
+    fn batched_against_one_by_one(method: Method) {
         // Poisson ratio 0.3: λ/E = 0.3/(1.3·0.4), μ/E = 1/2.6.
         const PER_YOUNG: [f32; 2] = [0.576_923_1, 0.384_615_4];
         let mut nodes = [Node::EMPTY; 12];
@@ -425,6 +487,8 @@ mod tests {
         nodes[10].u = nodes[0].u;
         nodes[11].x0 = nodes[0].x0;
         nodes[11].u = nodes[0].u;
+        let rest_edges = [[1.0, 0.1, 0.0], [0.2, 0.9, 0.1], [0.1, 0.2, 1.1]];
+        let rest_frame = qr::frame(rest_edges[0], rest_edges[1], rest_edges[2]);
         let mut elems = [Element::EMPTY; 20];
         for (e, el) in elems.iter_mut().enumerate() {
             let k = e as u16;
@@ -434,18 +498,24 @@ mod tests {
                 17 => [0, 11, 10, 0], // all four on one point
                 _ => [k % 10, (k + 3) % 10, (k + 5) % 10, (k + 8) % 10],
             };
-            el.rest = qr::frame([1.0, 0.1, 0.0], [0.2, 0.9, 0.1], [0.1, 0.2, 1.1]).local;
+            el.rest = rest_frame.local;
             el.stiffness = 1.0e4 + 10.0 * e as f32;
+            #[cfg(any(feature = "polar", feature = "linear"))]
+            {
+                // The world gradients of the rest shape.
+                let (ab, ac, ad) = (rest_edges[0], rest_edges[1], rest_edges[2]);
+                el.rest_grad = qr::forces::<true>(ab, ac, ad, &rest_frame.local, PER_YOUNG).grad;
+            }
         }
         let run = |batched: bool| {
             let mut f = [[0.0f32; 3]; 12];
             let mut kv = [[0.0f32; 3]; 12];
             let mut els = elems;
-            let add_to = |i: usize, a: Vec3, b: Vec3| {
-                f[i] = add(f[i], a);
-                kv[i] = add(kv[i], b);
-            };
             let totals = if batched {
+                let add_to = |i: usize, a: Vec3, b: Vec3| {
+                    f[i] = add(f[i], a);
+                    kv[i] = add(kv[i], b);
+                };
                 // Three blocks of eight (on x86/AArch64): two whole, one with
                 // four lanes used.
                 let mut blocks = [ElementBlock::EMPTY; crate::element_blocks(20)];
@@ -453,7 +523,7 @@ mod tests {
                     blocks[e / LANES].set(e % LANES, el);
                 }
                 let totals =
-                    forces::<true, true>(Method::Qr, PER_YOUNG, &nodes, &mut blocks, 20, add_to);
+                    forces::<true, true>(method, PER_YOUNG, &nodes, &mut blocks, 20, add_to);
                 for (e, el) in els.iter_mut().enumerate() {
                     *el = blocks[e / LANES].get(e % LANES);
                 }
@@ -478,15 +548,20 @@ mod tests {
                 assert!(alone.iter().any(|v| *v != [0.0; 3]));
                 totals
             } else {
-                let mut add_to = add_to;
+                // Element after element with each method's own kernel.
                 let mut totals = PassTotals::default();
                 for el in els.iter_mut() {
                     let n = gather(&nodes, el.nodes).expect("in range");
                     let rest = diffs(&[n[0].x0, n[1].x0, n[2].x0, n[3].x0]);
                     let du = diffs(&[n[0].u, n[1].u, n[2].u, n[3].u]);
-                    let out = element::forces(Method::Qr, el, PER_YOUNG, &rest, &du);
+                    let out = element::forces(method, el, PER_YOUNG, &rest, &du);
                     let vel = [n[0].v, n[1].v, n[2].v, n[3].v];
-                    finish::<true>(el, PER_YOUNG, &out, &vel, &mut add_to, &mut totals);
+                    let k_v = hform::stiffness_product(&vel, &out.grad, el.lame(PER_YOUNG));
+                    el.grad = out.grad;
+                    totals.inverted += u32::from(out.inverted);
+                    totals.energy += out.energy;
+                    scatter(el.nodes, &out.f, |i, v| f[i] = add(f[i], v));
+                    scatter(el.nodes, &k_v, |i, v| kv[i] = add(kv[i], v));
                 }
                 totals
             };

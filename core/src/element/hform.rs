@@ -68,13 +68,14 @@ pub(crate) fn neg_stress_times<T: Real>(s: &Sym<T>, g: [T; 3]) -> [T; 3] {
 #[cfg(any(feature = "polar", feature = "linear"))]
 #[inline(always)]
 #[must_use]
-pub(crate) fn energy(s: &Sym, h: &[[f32; 3]; 3]) -> f32 {
-    0.5 * (s[0] * h[0][0]
-        + s[1] * h[1][1]
-        + s[2] * h[2][2]
-        + s[3] * (h[0][1] + h[1][0])
-        + s[4] * (h[1][2] + h[2][1])
-        + s[5] * (h[2][0] + h[0][2]))
+pub(crate) fn energy<T: Real>(s: &Sym<T>, h: &[[T; 3]; 3]) -> T {
+    T::splat(0.5)
+        * (s[0] * h[0][0]
+            + s[1] * h[1][1]
+            + s[2] * h[2][2]
+            + s[3] * (h[0][1] + h[1][0])
+            + s[4] * (h[1][2] + h[2][1])
+            + s[5] * (h[2][0] + h[0][2]))
 }
 
 /// The stiffness product of one element: `−K Δx` for the nodes `a, b, c, d`

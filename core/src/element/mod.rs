@@ -5,7 +5,7 @@
 mod block;
 pub(crate) mod hform;
 #[cfg(feature = "linear")]
-mod linear;
+pub(crate) mod linear;
 #[cfg(feature = "polar")]
 pub(crate) mod polar;
 pub(crate) mod qr;
@@ -117,6 +117,18 @@ pub(crate) struct ElementForces {
     pub(crate) energy: f32,
     /// Current signed volume is negative.
     pub(crate) inverted: bool,
+}
+
+/// Forces, gradients and energy of an element, or of one element per lane
+/// (`T` = [`Batch`]): what a force kernel computes before the inversion test.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Kernel<T> {
+    /// World forces on `b, c, d` (N).
+    pub(crate) f: [[T; 3]; 3],
+    /// World gradients of `b, c, d`, scaled by `6V₀` (m²).
+    pub(crate) grad: [[T; 3]; 3],
+    /// Elastic energy (J).
+    pub(crate) energy: T,
 }
 
 /// One element's data as a value: what an [`ElementBlock`] keeps in each lane.

@@ -11,7 +11,7 @@
 //! with `xb > 0`, `yc ≥ 0`, and `6V = xb·yc·zd`: the element is inverted
 //! exactly when `zd < 0`.
 
-use super::ElementForces;
+use super::{ElementForces, Kernel};
 use crate::math::{cross, dot, normalize, scale, Real, Vec3};
 
 /// Local coordinates `[xb, xc, yc, xd, yd, zd]` of `b, c, d` in the QR frame, m.
@@ -128,17 +128,6 @@ pub(crate) fn local_gradients<T: Real>(l: &Local<T>) -> [[T; 3]; 3] {
         [zero, xb * zd, -(xb * yd)],
         [zero, zero, xb * yc],
     ]
-}
-
-/// Forces, gradients and energy of an element (or of one element per lane).
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct Kernel<T> {
-    /// World forces on `b, c, d` (N).
-    pub(crate) f: [[T; 3]; 3],
-    /// World gradients of `b, c, d`, scaled by `6V₀` (m²).
-    pub(crate) grad: [[T; 3]; 3],
-    /// Elastic energy (J).
-    pub(crate) energy: T,
 }
 
 /// Element forces with the QR frame. `rest` holds the rest local coordinates
