@@ -286,6 +286,9 @@ pub unsafe extern "C" fn corofem_build(
             poisson: mat.poisson,
             density: mat.density,
         };
+        // The material first, as the core checks it first: a bad material
+        // is `InvalidArgument` whatever the tetrahedron count.
+        material.validate()?;
         if tets.len() > s.max_tets {
             return Err(Status::Capacity.into());
         }
@@ -421,15 +424,8 @@ pub unsafe extern "C" fn corofem_set_elasticity(
     status((|| {
         // SAFETY: the caller's contract.
         let s = unsafe { built(scene)? };
-        // Both checked before either is set, so an error changes nothing.
-        corofem_core::Material {
-            young,
-            poisson,
-            density: 1.0,
-        }
-        .validate()?;
-        s.scene.set_poisson(poisson)?;
-        s.scene.set_young_all(young)?;
+        // Checked as a pair before either is set: an error changes nothing.
+        s.scene.set_elasticity(young, poisson)?;
         Ok(())
     })())
 }

@@ -4,14 +4,15 @@
 //!  caller's buffer (any address, `corofem_scene_bytes` long)
 //!  ┌─────┬──────────────┬──────────────┬──────────────────┬──────────────────┐
 //!  │ pad │ SceneHandle  │ Node × N     │ NodeWork × N     │ ElementBlock × B │
-//!  │ 0–7 │ magic, range,│ state, mass, │ CG scratch       │ rest frame, E,   │
-//!  │     │ Scene<Slice… │ flags, grab  │                  │ world gradients  │
+//!  │ 0–7 │ magic, range,│ state, mass, │ CG scratch       │ rest frame,      │
+//!  │     │ Scene<Slice… │ flags, grab  │                  │ E/(36V₀), world  │
+//!  │     │              │              │                  │ gradients        │
 //!  └─────┴──────────────┴──────────────┴──────────────────┴──────────────────┘
 //!        ▲ the handle: aligned to 8; the arrays follow at their own alignment
 //! ```
 //!
-//! `B = element_blocks(T)`: elements are stored in blocks of 8 on x86 and
-//! AArch64 hosts, of 1 on a Cortex-M4F.
+//! `B = element_blocks(T)`: elements are stored in blocks of
+//! `ELEMENTS_PER_BLOCK` (8 on targets with vector registers, 1 on a Cortex-M4F).
 //!
 //! The handle holds a `Scene<SliceStorage<'static>>` whose slices point into
 //! the same buffer, so the buffer must stay where it is, untouched by the

@@ -49,6 +49,25 @@ impl<const L: usize> Lanes<L> {
         }
     }
 
+    /// Lane by lane, `a` where `take` is true, else `b`.
+    #[cfg(feature = "polar")]
+    #[inline(always)]
+    pub(crate) fn select<const N: usize>(
+        take: &[bool; L],
+        a: [Self; N],
+        b: [Self; N],
+    ) -> [Self; N] {
+        core::array::from_fn(|k| {
+            let mut out = b[k].0;
+            for ((o, t), x) in out.iter_mut().zip(take).zip(a[k].0) {
+                if *t {
+                    *o = x;
+                }
+            }
+            Lanes(out)
+        })
+    }
+
     /// Lane `j` of each value, as an `f32` array.
     #[inline(always)]
     pub(crate) fn lane<const N: usize>(v: &[Self; N], j: usize) -> [f32; N] {

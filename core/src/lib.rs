@@ -9,7 +9,7 @@
 //! ## The step
 //!
 //! ```text
-//!  nodes (x₀ + u, v)                 elements (rest frame, λ', μ')
+//!  nodes (x₀ + u, v)                 elements (rest frame, E/(36 V₀))
 //!        │                                   │
 //!        └──► element pass ◄─────────────────┘   QR frame → B(current) → f_el,
 //!                 │                              world gradients g, −K v

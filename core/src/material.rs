@@ -1,6 +1,7 @@
 //! Isotropic linear-elastic material: Young's modulus, Poisson ratio, density.
 
 use crate::error::Error;
+use crate::math::Real;
 
 /// An isotropic material, entered as engineers measure it.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -77,10 +78,14 @@ pub(crate) fn element_stiffness(young: f32, six_v0: f32) -> f32 {
 
 /// The coefficients `[λ', μ'] = [λ, μ] / (36 V₀)` (Pa/m³) used by the kernels,
 /// from an element's [`element_stiffness`] and [`lame_per_young`].
+/// For one element or one per lane.
 #[inline(always)]
 #[must_use]
-pub(crate) fn lame(stiffness: f32, per_young: [f32; 2]) -> [f32; 2] {
-    [per_young[0] * stiffness, per_young[1] * stiffness]
+pub(crate) fn lame<T: Real>(stiffness: T, per_young: [f32; 2]) -> [T; 2] {
+    [
+        T::splat(per_young[0]) * stiffness,
+        T::splat(per_young[1]) * stiffness,
+    ]
 }
 
 #[cfg(test)]

@@ -218,9 +218,9 @@ pub(crate) type Mat3 = [[f32; 3]; 3];
 
 /// `M v`.
 #[cfg(any(feature = "polar", test))]
-#[inline]
+#[inline(always)]
 #[must_use]
-pub(crate) fn mat_vec(m: &Mat3, v: Vec3) -> Vec3 {
+pub(crate) fn mat_vec<T: Real>(m: &[[T; 3]; 3], v: [T; 3]) -> [T; 3] {
     [dot(m[0], v), dot(m[1], v), dot(m[2], v)]
 }
 
@@ -228,20 +228,32 @@ pub(crate) fn mat_vec(m: &Mat3, v: Vec3) -> Vec3 {
 /// singular to f32 precision (|det| below `1e-30` relative to the entries).
 #[must_use]
 pub(crate) fn solve3(m: &Mat3, b: Vec3) -> Option<Vec3> {
+    let (x, det, limit) = cramer3(m, b);
+    if !(det.abs() > limit) || !det.is_finite() {
+        return None;
+    }
+    Some(x)
+}
+
+/// [`solve3`] without its test, for one system or one per lane: the
+/// solution, `det M` and the limit `1e-30 |M|³` (Frobenius norm) that `|det|`
+/// must exceed for the solution to stand.
+#[inline(always)]
+#[must_use]
+pub(crate) fn cramer3<T: Real>(m: &[[T; 3]; 3], b: [T; 3]) -> ([T; 3], T, T) {
     let c0 = [m[0][0], m[1][0], m[2][0]];
     let c1 = [m[0][1], m[1][1], m[2][1]];
     let c2 = [m[0][2], m[1][2], m[2][2]];
     let det = det3(c0, c1, c2);
     let size = dot(m[0], m[0]) + dot(m[1], m[1]) + dot(m[2], m[2]);
-    if !(det.abs() > 1e-30 * size * sqrt(size)) || !det.is_finite() {
-        return None;
-    }
-    let inv = 1.0 / det;
-    Some([
+    let limit = T::splat(1e-30) * size * size.root();
+    let inv = T::splat(1.0) / det;
+    let x = [
         det3(b, c1, c2) * inv,
         det3(c0, b, c2) * inv,
         det3(c0, c1, b) * inv,
-    ])
+    ];
+    (x, det, limit)
 }
 
 #[cfg(test)]

@@ -28,10 +28,37 @@ fn gather<T: Copy>(slots: &[T], ids: [u16; 4]) -> Option<[T; 4]> {
     Some([get(ids[0])?, get(ids[1])?, get(ids[2])?, get(ids[3])?])
 }
 
-/// `[xᵢ − x_a]` for `i = b, c, d`.
+/// `[xᵢ − x_a]` for `i = b, c, d`, for one element or one per lane.
 #[inline(always)]
-fn diffs(x: &[Vec3; 4]) -> [Vec3; 3] {
+fn diffs<T: Real>(x: &[[T; 3]; 4]) -> [[T; 3]; 3] {
     [sub(x[1], x[0]), sub(x[2], x[0]), sub(x[3], x[0])]
+}
+
+/// Visits the slot of every corner `k` of every lane `j < lanes` of a
+/// block, `put(k, j, slot)`, and returns which lanes are present: used, with
+/// every node index in range (ruled out by `build`; an absent lane is
+/// computed and neither finished nor scattered). Corner by corner, so that a
+/// corner's lanes are filled one after the other.
+#[inline(always)]
+fn gather_corners<T>(
+    slots: &[T],
+    blk: &ElementBlock,
+    lanes: usize,
+    mut put: impl FnMut(usize, usize, &T),
+) -> [bool; LANES] {
+    let mut present = [false; LANES];
+    for p in present.iter_mut().take(lanes) {
+        *p = true;
+    }
+    for (k, ids) in blk.nodes.iter().enumerate() {
+        for (j, (id, p)) in ids.iter().zip(present.iter_mut()).enumerate().take(lanes) {
+            match slots.get(usize::from(*id)) {
+                Some(slot) => put(k, j, slot),
+                None => *p = false,
+            }
+        }
+    }
+    present
 }
 
 /// Scatters `[f_b, f_c, f_d]` and `f_a = −(f_b + f_c + f_d)` to the four nodes
@@ -101,28 +128,37 @@ struct ForcePass<'a, F> {
 }
 
 /// A force kernel run on every lane of a block at once.
-#[cfg(any(feature = "qr", feature = "qr-rest-b", feature = "linear"))]
 trait LaneKernel {
-    /// The kernel for the current edges `cur` and displacement differences
-    /// `du` (m) of the block's elements, with `lame = [λ', μ']`.
-    fn run(
-        du: &[[Batch; 3]; 3],
-        cur: &[[Batch; 3]; 3],
-        blk: &ElementBlock,
-        lame: [Batch; 2],
-    ) -> LaneForces;
+    /// Whether the kernel updates the elements' rotations (`Polar`).
+    #[cfg(feature = "polar")]
+    const ROTATES: bool = false;
+    /// The kernel for the rest edges `rest`, displacement differences `du`
+    /// and current edges `cur` (m) of the block's elements, with
+    /// `lame = [λ', μ']`.
+    fn run(edges: &Edges, blk: &ElementBlock, lame: [Batch; 2]) -> LaneForces;
+}
+
+/// The edges `b − a, c − a, d − a` of a block's elements, in lanes (m).
+struct Edges {
+    rest: [[Batch; 3]; 3],
+    du: [[Batch; 3]; 3],
+    cur: [[Batch; 3]; 3],
 }
 
 /// What a [`LaneKernel`] returns.
-#[cfg(any(feature = "qr", feature = "qr-rest-b", feature = "linear"))]
 struct LaneForces {
     /// Forces, gradients and energy of every lane.
     k: element::Kernel<Batch>,
-    /// A value with the sign of each lane's current volume (m³ or m³·m⁻ⁿ).
+    /// A value with the sign of each lane's current volume; only the sign is
+    /// used (QR's local `zd` in m, `6V` in m³ for the others).
     volume: Batch,
     /// Lanes whose result stands; the others are redone alone by
-    /// [`element::forces`] (the QR frame's fallbacks).
+    /// [`element::forces`] (the QR frame's fallbacks, the polar rotation
+    /// search's irregular paths).
     regular: [bool; LANES],
+    /// The new rotations, if [`LaneKernel::ROTATES`].
+    #[cfg(feature = "polar")]
+    rot: [Batch; 4],
 }
 
 /// The QR kernel in lanes (`CURRENT_B` as in [`qr::forces`]).
@@ -132,12 +168,8 @@ struct QrLanes<const CURRENT_B: bool>;
 #[cfg(any(feature = "qr", feature = "qr-rest-b"))]
 impl<const CURRENT_B: bool> LaneKernel for QrLanes<CURRENT_B> {
     #[inline(always)]
-    fn run(
-        _du: &[[Batch; 3]; 3],
-        cur: &[[Batch; 3]; 3],
-        blk: &ElementBlock,
-        lame: [Batch; 2],
-    ) -> LaneForces {
+    fn run(edges: &Edges, blk: &ElementBlock, lame: [Batch; 2]) -> LaneForces {
+        let cur = &edges.cur;
         let (fr, [n1, n3]) = qr::frame_regular(cur[0], cur[1], cur[2]);
         // The frame is `qr::frame`'s exactly where neither squared length it
         // divided by needs a fallback.
@@ -149,6 +181,8 @@ impl<const CURRENT_B: bool> LaneKernel for QrLanes<CURRENT_B> {
             k: qr::in_frame::<Batch, CURRENT_B>(&fr, &blk.rest, lame),
             volume: fr.local[5],
             regular,
+            #[cfg(feature = "polar")]
+            rot: blk.rot,
         }
     }
 }
@@ -160,16 +194,36 @@ struct LinearLanes;
 #[cfg(feature = "linear")]
 impl LaneKernel for LinearLanes {
     #[inline(always)]
-    fn run(
-        du: &[[Batch; 3]; 3],
-        cur: &[[Batch; 3]; 3],
-        blk: &ElementBlock,
-        lame: [Batch; 2],
-    ) -> LaneForces {
+    fn run(edges: &Edges, blk: &ElementBlock, lame: [Batch; 2]) -> LaneForces {
+        let cur = &edges.cur;
         LaneForces {
-            k: element::linear::kernel(du, &blk.rest_grad, lame),
+            k: element::linear::kernel(&edges.du, &blk.rest_grad, lame),
             volume: crate::math::det3(cur[0], cur[1], cur[2]),
             regular: [true; LANES],
+            #[cfg(feature = "polar")]
+            rot: blk.rot,
+        }
+    }
+}
+
+/// The polar kernel in lanes: the rotation search of every lane at once
+/// where it takes its regular path, the rest of the kernel in lanes.
+#[cfg(feature = "polar")]
+struct PolarLanes;
+
+#[cfg(feature = "polar")]
+impl LaneKernel for PolarLanes {
+    const ROTATES: bool = true;
+    #[inline(always)]
+    fn run(edges: &Edges, blk: &ElementBlock, lame: [Batch; 2]) -> LaneForces {
+        let cur = &edges.cur;
+        let f = hform::grad_h(cur, &blk.rest_grad);
+        let rot = element::polar::closest_rotation_lanes(&f, blk.rot);
+        LaneForces {
+            k: element::polar::kernel(&rot.r, &rot.m, &edges.rest, &blk.rest_grad, lame),
+            volume: crate::math::det3(cur[0], cur[1], cur[2]),
+            regular: rot.regular,
+            rot: rot.q,
         }
     }
 }
@@ -178,8 +232,8 @@ impl LaneKernel for LinearLanes {
 // that compiles the step for another instruction set would run them compiled
 // for the baseline.
 impl<F: FnMut(usize, Vec3, Vec3)> ForcePass<'_, F> {
-    /// The first `lanes` elements of a block, batched where the method and
-    /// the target allow it (`Polar`'s iterations are not batched).
+    /// The first `lanes` elements of a block, batched where the target
+    /// allows it.
     #[inline(always)]
     fn block<const WITH_KV: bool, const COMMIT: bool>(
         &mut self,
@@ -196,6 +250,10 @@ impl<F: FnMut(usize, Vec3, Vec3)> ForcePass<'_, F> {
             #[cfg(feature = "linear")]
             Method::Linear if LANES > 1 => {
                 self.batched::<LinearLanes, WITH_KV, COMMIT>(blk, lanes);
+            }
+            #[cfg(feature = "polar")]
+            Method::Polar if LANES > 1 => {
+                self.batched::<PolarLanes, WITH_KV, COMMIT>(blk, lanes);
             }
             _ => self.one_by_one::<WITH_KV, COMMIT>(blk, lanes),
         }
@@ -253,7 +311,6 @@ impl<F: FnMut(usize, Vec3, Vec3)> ForcePass<'_, F> {
     /// independent and see the same operations, so the bits are those of the
     /// one-by-one path. A lane the kernel marks irregular is redone alone;
     /// unused lanes are computed and ignored.
-    #[cfg(any(feature = "qr", feature = "qr-rest-b", feature = "linear"))]
     #[inline(always)]
     fn batched<K: LaneKernel, const WITH_KV: bool, const COMMIT: bool>(
         &mut self,
@@ -261,44 +318,33 @@ impl<F: FnMut(usize, Vec3, Vec3)> ForcePass<'_, F> {
         lanes: usize,
     ) {
         let zero = Batch::splat(0.0);
-        // Gather rest positions, displacements (and velocities) corner by
-        // corner into lanes. A lane whose node index is out of range (ruled
-        // out by `build`) is marked absent and not finished.
+        // Rest positions, displacements (and velocities) in lanes.
         let mut x0 = [[zero; 3]; 4];
         let mut u = [[zero; 3]; 4];
         let mut vel = [[zero; 3]; 4];
-        let mut present = [false; LANES];
-        for p in present.iter_mut().take(lanes) {
-            *p = true;
-        }
-        for (k, ids) in blk.nodes.iter().enumerate() {
-            for (j, (id, p)) in ids.iter().zip(present.iter_mut()).enumerate().take(lanes) {
-                let Some(n) = self.nodes.get(usize::from(*id)) else {
-                    *p = false;
-                    continue;
-                };
-                Batch::put(&mut x0[k], j, n.x0);
-                Batch::put(&mut u[k], j, n.u);
-                if WITH_KV {
-                    Batch::put(&mut vel[k], j, n.v);
+        let present = gather_corners(
+            self.nodes,
+            blk,
+            lanes,
+            #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
+            |k, j, n: &Node| {
+                if let (Some(x0), Some(u)) = (x0.get_mut(k), u.get_mut(k)) {
+                    Batch::put(x0, j, n.x0);
+                    Batch::put(u, j, n.u);
                 }
-            }
-        }
-        // Rest edges, displacement differences and current edges, lane by
-        // lane as `diffs` and `element::forces` form them, and `[λ', μ']` as
-        // `crate::material::lame` forms them.
-        let rest = [sub(x0[1], x0[0]), sub(x0[2], x0[0]), sub(x0[3], x0[0])];
-        let du = [sub(u[1], u[0]), sub(u[2], u[0]), sub(u[3], u[0])];
-        let cur = [
-            add(rest[0], du[0]),
-            add(rest[1], du[1]),
-            add(rest[2], du[2]),
-        ];
-        let lame = [
-            Batch::splat(self.per_young[0]) * blk.stiffness,
-            Batch::splat(self.per_young[1]) * blk.stiffness,
-        ];
-        let out = K::run(&du, &cur, blk, lame);
+                if let (true, Some(v)) = (WITH_KV, vel.get_mut(k)) {
+                    Batch::put(v, j, n.v);
+                }
+            },
+        );
+        // The same operations as one element at a time, on every lane.
+        let rest = diffs(&x0);
+        let du = diffs(&u);
+        let cur = element::current_edges(&rest, &du);
+        let lame = crate::material::lame(blk.stiffness, self.per_young);
+        let edges = Edges { rest, du, cur };
+        let out = K::run(&edges, blk, lame);
+        let Edges { rest, du, .. } = edges;
         let kv = if WITH_KV {
             hform::stiffness_product(&vel, &out.k.grad, lame)
         } else {
@@ -309,8 +355,8 @@ impl<F: FnMut(usize, Vec3, Vec3)> ForcePass<'_, F> {
             if !present.get(j).copied().unwrap_or(false) {
                 continue;
             }
-            let vel_j: [Vec3; 4] = core::array::from_fn(|m| Batch::lane(&vel[m], j));
             if !out.regular.get(j).copied().unwrap_or(false) {
+                let vel_j = vel.map(|v| Batch::lane(&v, j));
                 self.one::<WITH_KV, COMMIT>(blk, j, &lane3(&rest, j), &lane3(&du, j), &vel_j);
                 continue;
             }
@@ -323,6 +369,10 @@ impl<F: FnMut(usize, Vec3, Vec3)> ForcePass<'_, F> {
             };
             if COMMIT {
                 blk.set_grad(j, &f.grad);
+                #[cfg(feature = "polar")]
+                if K::ROTATES {
+                    Batch::put(&mut blk.rot, j, Batch::lane(&out.rot, j));
+                }
             }
             self.emit(&f, blk.nodes(j), &lane3(&kv, j));
         }
@@ -396,25 +446,20 @@ fn product_block(per_young: [f32; 2], blk: &ElementBlock, lanes: usize, work: &m
         }
         return;
     }
-    // Gather `d` corner by corner into lanes. A lane whose node index is out
-    // of range (ruled out by `build`) is marked absent and not scattered.
+    // `d` in lanes.
     let mut x = [[Batch::splat(0.0); 3]; 4];
-    let mut present = [false; LANES];
-    for p in present.iter_mut().take(lanes) {
-        *p = true;
-    }
-    for (xk, ids) in x.iter_mut().zip(&blk.nodes) {
-        for (j, (id, p)) in ids.iter().zip(present.iter_mut()).enumerate().take(lanes) {
-            match work.get(usize::from(*id)) {
-                Some(w) => Batch::put(xk, j, w.d),
-                None => *p = false,
+    let present = gather_corners(
+        work,
+        blk,
+        lanes,
+        #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
+        |k, j, w: &NodeWork| {
+            if let Some(xk) = x.get_mut(k) {
+                Batch::put(xk, j, w.d);
             }
-        }
-    }
-    let lame = [
-        Batch::splat(per_young[0]) * blk.stiffness,
-        Batch::splat(per_young[1]) * blk.stiffness,
-    ];
+        },
+    );
+    let lame = crate::material::lame(blk.stiffness, per_young);
     let kd = hform::stiffness_product(&x, &blk.grad, lame);
     for j in 0..lanes {
         if !present.get(j).copied().unwrap_or(false) {
@@ -522,6 +567,10 @@ mod tests {
                 for (e, el) in els.iter().enumerate() {
                     blocks[e / LANES].set(e % LANES, el);
                 }
+                // Two passes: the second starts from the rotations the first
+                // kept, where most polar lanes take the regular path.
+                let mut add_to = add_to;
+                forces::<true, true>(method, PER_YOUNG, &nodes, &mut blocks, 20, &mut add_to);
                 let totals =
                     forces::<true, true>(method, PER_YOUNG, &nodes, &mut blocks, 20, add_to);
                 for (e, el) in els.iter_mut().enumerate() {
@@ -548,24 +597,28 @@ mod tests {
                 assert!(alone.iter().any(|v| *v != [0.0; 3]));
                 totals
             } else {
-                // Element after element with each method's own kernel.
+                // Element after element with each method's own kernel, twice
+                // as above; the totals are the second pass's.
                 let mut totals = PassTotals::default();
-                for el in els.iter_mut() {
-                    let n = gather(&nodes, el.nodes).expect("in range");
-                    let rest = diffs(&[n[0].x0, n[1].x0, n[2].x0, n[3].x0]);
-                    let du = diffs(&[n[0].u, n[1].u, n[2].u, n[3].u]);
-                    let out = element::forces(method, el, PER_YOUNG, &rest, &du);
-                    let vel = [n[0].v, n[1].v, n[2].v, n[3].v];
-                    let k_v = hform::stiffness_product(&vel, &out.grad, el.lame(PER_YOUNG));
-                    el.grad = out.grad;
-                    totals.inverted += u32::from(out.inverted);
-                    totals.energy += out.energy;
-                    scatter(el.nodes, &out.f, |i, v| f[i] = add(f[i], v));
-                    scatter(el.nodes, &k_v, |i, v| kv[i] = add(kv[i], v));
+                for _ in 0..2 {
+                    totals = PassTotals::default();
+                    for el in els.iter_mut() {
+                        let n = gather(&nodes, el.nodes).expect("in range");
+                        let rest = diffs(&[n[0].x0, n[1].x0, n[2].x0, n[3].x0]);
+                        let du = diffs(&[n[0].u, n[1].u, n[2].u, n[3].u]);
+                        let out = element::forces(method, el, PER_YOUNG, &rest, &du);
+                        let vel = [n[0].v, n[1].v, n[2].v, n[3].v];
+                        let k_v = hform::stiffness_product(&vel, &out.grad, el.lame(PER_YOUNG));
+                        el.grad = out.grad;
+                        totals.inverted += u32::from(out.inverted);
+                        totals.energy += out.energy;
+                        scatter(el.nodes, &out.f, |i, v| f[i] = add(f[i], v));
+                        scatter(el.nodes, &k_v, |i, v| kv[i] = add(kv[i], v));
+                    }
                 }
                 totals
             };
-            (f, kv, els.map(|e| e.grad), totals.energy, totals.inverted)
+            (f, kv, els, totals.energy, totals.inverted)
         };
         let (batched, alone) = (run(true), run(false));
         for v in batched.0.iter().chain(&batched.1) {

@@ -77,7 +77,8 @@ impl Header {
 /// use corofem::{BuildOptions, Material, StaticScene};
 /// let nodes = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
 /// let tets = [[0, 1, 2, 3]];
-/// let mut scene: StaticScene<4, 1> = StaticScene::new();
+/// // Capacity: 4 nodes and the element blocks one tetrahedron needs.
+/// let mut scene: StaticScene<4, { corofem::element_blocks(1) }> = StaticScene::new();
 /// scene.build(&nodes, &tets, &Material::default(), BuildOptions::default()).unwrap();
 /// scene.fix_nodes(&[0, 1, 2]).unwrap();
 /// let stats = scene.step().unwrap();
@@ -218,7 +219,9 @@ impl<S: Storage> Scene<S> {
         }
         let per_young = lame_per_young(material.poisson);
         let (nodes, work, elems) = self.store.parts_mut();
-        // Pass 1: validate every element; mark used nodes in the solver scratch.
+        // Pass 1: validate every element; mark used nodes in the solver
+        // scratch (`inv_p`, which every step recomputes before it reads it:
+        // nothing observable changes on error).
         for w in work.iter_mut() {
             w.inv_p = 0.0;
         }
@@ -418,7 +421,9 @@ impl<S: Storage> Scene<S> {
 
     /// Young's modulus of element `e` (Pa). An element keeps `E / (36 V₀)`,
     /// so this is that times `36 V₀`: the value set, to within f32 round-off
-    /// (a few units in the last place).
+    /// (a few units in the last place) while `E / (36 V₀)` is a normal f32
+    /// number; at the ends of the f32 range it can come back as 0 or
+    /// infinity.
     #[must_use]
     pub fn young(&self, e: usize) -> Option<f32> {
         self.element(e).map(|el| el.stiffness * (6.0 * el.six_v0()))
@@ -437,10 +442,10 @@ impl<S: Storage> Scene<S> {
     }
 
     /// Sets Young's modulus of one element (Pa, `≥ 0`). Refused as `young`
-    /// when the element's coefficient `E/(36 V₀)` would overflow f32.
+    /// when the element's `λ/(36 V₀)` or `μ/(36 V₀)` would overflow f32.
     pub fn set_young(&mut self, e: usize, young: f32) -> Result<(), Error> {
         validate_young(young)?;
-        let per_young = lame_per_young(self.hdr.poisson);
+        let per_young = self.hdr.per_young();
         let el = self
             .element(e)
             .ok_or(Error::ElementOutOfRange { element: e })?;
@@ -456,12 +461,18 @@ impl<S: Storage> Scene<S> {
 
     /// Sets Young's modulus of every element (Pa, `≥ 0`) — the paper's rabbit:
     /// crushed at zero stiffness, then raised. Refused as `young` when an
-    /// element's coefficient `E/(36 V₀)` would overflow f32.
+    /// element's `λ/(36 V₀)` or `μ/(36 V₀)` would overflow f32.
     pub fn set_young_all(&mut self, young: f32) -> Result<(), Error> {
         validate_young(young)?;
         if !self.lame_fits(Some(young), self.hdr.poisson) {
             return Err(Error::InvalidParameter { name: "young" });
         }
+        self.write_young_all(young);
+        Ok(())
+    }
+
+    /// Writes Young's modulus `young` (Pa, checked) into every element.
+    fn write_young_all(&mut self, young: f32) {
         let v = self.view();
         for e in 0..v.n_elems {
             if let Some(block) = v.elems.get_mut(e / LANES) {
@@ -469,7 +480,6 @@ impl<S: Storage> Scene<S> {
                 block.set_stiffness(e % LANES, element_stiffness(young, six_v0));
             }
         }
-        Ok(())
     }
 
     /// Sets the Poisson ratio of the whole body (`0 ≤ ν < 0.5`). Refused as
@@ -480,6 +490,21 @@ impl<S: Storage> Scene<S> {
             return Err(Error::InvalidParameter { name: "poisson" });
         }
         self.hdr.poisson = poisson;
+        Ok(())
+    }
+
+    /// Sets Young's modulus of every element (Pa, `≥ 0`) and the Poisson
+    /// ratio (`0 ≤ ν < 0.5`) together: checked as a pair, so a pair that fits
+    /// is taken whatever the order, and on error nothing changes. Refused as
+    /// `young` when an element's `λ/(36 V₀)` or `μ/(36 V₀)` would overflow.
+    pub fn set_elasticity(&mut self, young: f32, poisson: f32) -> Result<(), Error> {
+        validate_young(young)?;
+        validate_poisson(poisson)?;
+        if !self.lame_fits(Some(young), poisson) {
+            return Err(Error::InvalidParameter { name: "young" });
+        }
+        self.hdr.poisson = poisson;
+        self.write_young_all(young);
         Ok(())
     }
 
@@ -592,7 +617,10 @@ impl<S: Storage> Scene<S> {
     /// Advances the scene by one implicit Euler step of `settings().dt`.
     ///
     /// Never panics and never allocates. If the solve produces non-finite
-    /// values the step is not applied and [`StepError::Diverged`] is returned.
+    /// values the step is not applied and [`StepError::Diverged`] is returned:
+    /// displacements, velocities, time and the tool are unchanged, while the
+    /// elements' world gradients (and `Polar`'s warm-start rotations) are
+    /// those the attempted step computed.
     ///
     /// The step itself is compiled once, in this crate, for the target's
     /// baseline instruction set. For run-time instruction-set dispatch use
@@ -606,10 +634,9 @@ impl<S: Storage> Scene<S> {
     /// instruction set it detects at run time by calling it from a
     /// `#[target_feature]` function (as `corofem_io::fast` does); the bits do
     /// not depend on the instruction set. Each call site gets a copy of the
-    /// whole step: call it from one place. (When `step` itself was inlined
-    /// into its callers, every test crate compiled its own copy, and `cargo
-    /// test` took minutes longer.) Elsewhere the compiler decides: on a Cortex-M4F,
-    /// forced inlining copied the step into each caller (flash 37 → 56 kB).
+    /// whole step, which is slow to compile: call it from one place. Elsewhere
+    /// than x86 the compiler decides (on a Cortex-M4F, forced inlining copied
+    /// the step into each caller: flash 37 → 56 kB).
     #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
     pub fn step_inline(&mut self) -> Result<StepStats, StepError> {
         crate::step::step_inline(self.view())
@@ -682,15 +709,9 @@ fn edge(positions: &[Vec3], t: &[u32; 4], k: usize) -> Vec3 {
 /// tetrahedron whose edges lie between ~1e-19 and ~1e19 m and whose face
 /// `abc` is not flat).
 fn regular_frame(positions: &[Vec3], t: &[u32; 4]) -> bool {
-    let regular = |v: Vec3| {
-        let n2 = crate::math::dot(v, v);
-        n2 >= f32::MIN_POSITIVE && n2.is_finite()
-    };
-    let ab = edge(positions, t, 1);
-    match crate::math::normalize(ab) {
-        Some(e1) => regular(ab) && regular(crate::math::cross(e1, edge(positions, t, 2))),
-        None => false,
-    }
+    let e = |k| edge(positions, t, k);
+    let (_, [n1, n3]) = qr::frame_regular(e(1), e(2), e(3));
+    qr::regular(n1) && qr::regular(n3)
 }
 
 /// World gradients (m², 6V₀-scaled) of the rest shape, computed by the step's

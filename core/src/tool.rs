@@ -125,29 +125,34 @@ impl<S: crate::Storage> crate::Scene<S> {
     /// (`StepStats::tool_force`, N) — what the device renders. On any error
     /// the target stays where it was, like the rest of the state.
     pub fn step_haptic(&mut self, target: Vec3) -> Result<crate::StepStats, crate::StepError> {
-        self.with_target(target, Self::step)
+        self.with_target(Some(target), Self::step)
     }
 
-    /// [`Scene::step_haptic`](crate::Scene::step_haptic) inlined on x86, for run-time instruction-set
-    /// dispatch: see [`Scene::step_inline`](crate::Scene::step_inline).
+    /// [`Scene::step_haptic`](crate::Scene::step_haptic) inlined on x86, for
+    /// run-time instruction-set dispatch: see
+    /// [`Scene::step_inline`](crate::Scene::step_inline). With `None` it is a
+    /// plain step, so that a dispatcher holds one inlined copy of the step
+    /// for both.
     #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
     pub fn step_haptic_inline(
         &mut self,
-        target: Vec3,
+        target: Option<Vec3>,
     ) -> Result<crate::StepStats, crate::StepError> {
         self.with_target(target, Self::step_inline)
     }
 
-    /// Moves the tool target to `target` (m) and runs `step`; puts the target
-    /// back if the step fails.
+    /// Moves the tool target to `target` (m), if any, and runs `step`; puts
+    /// the target back if the step fails.
     #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
     fn with_target(
         &mut self,
-        target: Vec3,
+        target: Option<Vec3>,
         step: impl FnOnce(&mut Self) -> Result<crate::StepStats, crate::StepError>,
     ) -> Result<crate::StepStats, crate::StepError> {
         let previous = self.hdr.tool.target;
-        self.set_tool_target(target)?;
+        if let Some(target) = target {
+            self.set_tool_target(target)?;
+        }
         let stepped = step(self);
         if stepped.is_err() {
             self.hdr.tool.target = previous;

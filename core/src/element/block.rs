@@ -9,7 +9,7 @@
 //! about what the lanes saved.
 //!
 //! With one lane (targets without vector registers, such as a Cortex-M4F) a
-//! block is exactly one element in the order of [`Element`]'s fields.
+//! block holds one element, with no padding between lanes.
 
 use super::Element;
 use crate::lanes::{Lanes, LANES};
@@ -67,7 +67,8 @@ impl ElementBlock {
         self.nodes.map(|c| c.get(j).copied().unwrap_or(0))
     }
 
-    /// The element in lane `j`, as a value (an empty element if `j ≥ LANES`).
+    /// The element in lane `j`, as a value (all zeros, not a usable element,
+    /// if `j ≥ LANES`).
     #[inline(always)]
     #[must_use]
     pub(crate) fn get(&self, j: usize) -> Element {

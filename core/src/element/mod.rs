@@ -13,7 +13,7 @@ pub(crate) mod qr;
 pub use block::{element_blocks, ElementBlock};
 pub(crate) use block::{lane3, Batch};
 
-use crate::math::{add, Vec3};
+use crate::math::{add, Real, Vec3};
 
 #[cfg(not(any(
     feature = "qr",
@@ -195,11 +195,7 @@ pub(crate) fn forces(
     du: &[Vec3; 3],
 ) -> ElementForces {
     let lame = el.lame(per_young);
-    let cur = [
-        add(rest[0], du[0]),
-        add(rest[1], du[1]),
-        add(rest[2], du[2]),
-    ];
+    let cur = current_edges(rest, du);
     match method {
         #[cfg(feature = "qr")]
         Method::Qr => qr::forces::<true>(cur[0], cur[1], cur[2], &el.rest, lame),
@@ -210,6 +206,17 @@ pub(crate) fn forces(
         #[cfg(feature = "linear")]
         Method::Linear => linear::forces(du, &cur, &el.rest_grad, lame),
     }
+}
+
+/// Current edges `rest + du` (m), for one element or one per lane.
+#[inline(always)]
+#[must_use]
+pub(crate) fn current_edges<T: Real>(rest: &[[T; 3]; 3], du: &[[T; 3]; 3]) -> [[T; 3]; 3] {
+    [
+        add(rest[0], du[0]),
+        add(rest[1], du[1]),
+        add(rest[2], du[2]),
+    ]
 }
 
 #[cfg(test)]

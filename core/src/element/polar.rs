@@ -26,8 +26,9 @@
 //! of ghost torques even with rest gradients.
 
 use super::hform::{energy, grad_h, neg_stress_times, stress};
-use super::ElementForces;
-use crate::math::{det3, dot, mat_vec, solve3, sqrt, Mat3, Vec3};
+use super::{Batch, ElementForces, Kernel};
+use crate::lanes::LANES;
+use crate::math::{det3, dot, mat_vec, solve3, sqrt, Mat3, Real, Vec3};
 
 /// Most Newton iterations per element and step (warm-started, 1–2 are typical).
 const MAX_ITERATIONS: usize = 8;
@@ -44,30 +45,102 @@ enum Step {
 pub(crate) const IDENTITY: [f32; 4] = [1.0, 0.0, 0.0, 0.0];
 
 /// Rotation matrix (rows) of the unit quaternion `q = (w, x, y, z)`.
-#[inline]
+#[inline(always)]
 #[must_use]
-pub(crate) fn rotation(q: [f32; 4]) -> Mat3 {
+pub(crate) fn rotation<T: Real>(q: [T; 4]) -> [[T; 3]; 3] {
     let [w, x, y, z] = q;
+    let (one, two) = (T::splat(1.0), T::splat(2.0));
     let (xx, yy, zz) = (x * x, y * y, z * z);
     let (xy, xz, yz) = (x * y, x * z, y * z);
     let (wx, wy, wz) = (w * x, w * y, w * z);
     [
-        [1.0 - 2.0 * (yy + zz), 2.0 * (xy - wz), 2.0 * (xz + wy)],
-        [2.0 * (xy + wz), 1.0 - 2.0 * (xx + zz), 2.0 * (yz - wx)],
-        [2.0 * (xz - wy), 2.0 * (yz + wx), 1.0 - 2.0 * (xx + yy)],
+        [one - two * (yy + zz), two * (xy - wz), two * (xz + wy)],
+        [two * (xy + wz), one - two * (xx + zz), two * (yz - wx)],
+        [two * (xz - wy), two * (yz + wx), one - two * (xx + yy)],
     ]
 }
 
 /// `Rᵀ F` for rows-stored matrices.
-#[inline]
-fn rt_times(r: &Mat3, f: &Mat3) -> Mat3 {
-    let mut m = [[0.0f32; 3]; 3];
+#[inline(always)]
+fn rt_times<T: Real>(r: &[[T; 3]; 3], f: &[[T; 3]; 3]) -> [[T; 3]; 3] {
+    let mut m = [[T::splat(0.0); 3]; 3];
     for (i, row) in m.iter_mut().enumerate() {
         for (j, mij) in row.iter_mut().enumerate() {
             *mij = r[0][i] * f[0][j] + r[1][i] * f[1][j] + r[2][i] * f[2][j];
         }
     }
     m
+}
+
+/// `‖F‖²` (Frobenius), summed row by row.
+#[inline(always)]
+fn norm2<T: Real>(f: &[[T; 3]; 3]) -> T {
+    f.iter().flatten().fold(T::splat(0.0), |s, v| s + *v * *v)
+}
+
+/// What a Newton iteration needs of `M = Rᵀ F`: the skew vector `w` and
+/// `|w|²`, `tr M`, the Hessian `tr(M) I − sym M` and its leading 2×2 minor.
+struct Probe<T> {
+    w: [T; 3],
+    w2: T,
+    tr: T,
+    h: [[T; 3]; 3],
+    minor2: T,
+}
+
+#[inline(always)]
+fn probe<T: Real>(m: &[[T; 3]; 3]) -> Probe<T> {
+    let w = [m[1][2] - m[2][1], m[2][0] - m[0][2], m[0][1] - m[1][0]];
+    let tr = m[0][0] + m[1][1] + m[2][2];
+    let half = T::splat(-0.5);
+    let (s01, s02, s12) = (
+        half * (m[0][1] + m[1][0]),
+        half * (m[0][2] + m[2][0]),
+        half * (m[1][2] + m[2][1]),
+    );
+    let h = [
+        [tr - m[0][0], s01, s02],
+        [s01, tr - m[1][1], s12],
+        [s02, s12, tr - m[2][2]],
+    ];
+    Probe {
+        w,
+        w2: dot(w, w),
+        tr,
+        minor2: h[0][0] * h[1][1] - h[0][1] * h[0][1],
+        h,
+    }
+}
+
+/// The quaternion product `q ⊗ p`.
+#[inline(always)]
+fn compose<T: Real>(q: [T; 4], p: [T; 4]) -> [T; 4] {
+    let [qw, qx, qy, qz] = q;
+    [
+        qw * p[0] - (qx * p[1] + qy * p[2] + qz * p[3]),
+        qx * p[0] + qw * p[1] + (qy * p[3] - qz * p[2]),
+        qy * p[0] + qw * p[2] + (qz * p[1] - qx * p[3]),
+        qz * p[0] + qw * p[3] + (qx * p[2] - qy * p[1]),
+    ]
+}
+
+/// `|n|²` of a quaternion.
+#[inline(always)]
+fn len2<T: Real>(n: [T; 4]) -> T {
+    n[0] * n[0] + n[1] * n[1] + n[2] * n[2] + n[3] * n[3]
+}
+
+/// A squared length that may be divided by: normal and finite.
+#[inline(always)]
+fn regular(x2: f32) -> bool {
+    x2 >= f32::MIN_POSITIVE && x2.is_finite()
+}
+
+/// `(8 ε ‖F‖)²`: the f32 noise floor of `|w|²` when forming `M`.
+#[inline(always)]
+fn noise_floor2<T: Real>(norm: T) -> T {
+    let a = T::splat(8.0 * f32::EPSILON) * norm;
+    a * a
 }
 
 /// Updates `q` in place to the rotation closest to `f`; returns `R` and
@@ -183,37 +256,23 @@ fn jacobi_rotate(a: &mut [[f32; 4]; 4], v: &mut [[f32; 4]; 4], p: usize, r: usiz
 fn newton(f: &Mat3, q: &mut [f32; 4]) -> (Mat3, Mat3, bool) {
     let mut r = rotation(*q);
     let mut m = rt_times(&r, f);
-    let norm2 = f.iter().flatten().fold(0.0f32, |s, v| s + v * v);
-    if !(norm2 >= f32::MIN_POSITIVE && norm2.is_finite()) {
+    let norm2 = norm2(f);
+    if !regular(norm2) {
         return (r, m, true);
     }
     let norm = sqrt(norm2);
     // Stop at the f32 noise floor of forming M (a few ulps of ‖F‖) or when the
     // skew part stops shrinking.
-    let floor2 = (8.0 * f32::EPSILON * norm) * (8.0 * f32::EPSILON * norm);
+    let floor2 = noise_floor2(norm);
     let mut last2 = f32::INFINITY;
     for _ in 0..MAX_ITERATIONS {
-        let w = [m[1][2] - m[2][1], m[2][0] - m[0][2], m[0][1] - m[1][0]];
-        let w2 = dot(w, w);
-        let tr = m[0][0] + m[1][1] + m[2][2];
-        let h = [
-            [
-                tr - m[0][0],
-                -0.5 * (m[0][1] + m[1][0]),
-                -0.5 * (m[0][2] + m[2][0]),
-            ],
-            [
-                -0.5 * (m[0][1] + m[1][0]),
-                tr - m[1][1],
-                -0.5 * (m[1][2] + m[2][1]),
-            ],
-            [
-                -0.5 * (m[0][2] + m[2][0]),
-                -0.5 * (m[1][2] + m[2][1]),
-                tr - m[2][2],
-            ],
-        ];
-        let minor2 = h[0][0] * h[1][1] - h[0][1] * h[0][1];
+        let Probe {
+            w,
+            w2,
+            tr,
+            h,
+            minor2,
+        } = probe(&m);
         let concave = h[0][0] > 0.0 && minor2 > 0.0 && det3(h[0], h[1], h[2]) > 0.0;
         let step = if concave {
             // Near the maximum: Newton, until the skew part reaches the noise
@@ -253,15 +312,9 @@ fn newton(f: &Mat3, q: &mut [f32; 4]) -> (Mat3, Mat3, bool) {
                 p
             }
         };
-        let [qw, qx, qy, qz] = *q;
-        let n = [
-            qw * p[0] - (qx * p[1] + qy * p[2] + qz * p[3]),
-            qx * p[0] + qw * p[1] + (qy * p[3] - qz * p[2]),
-            qy * p[0] + qw * p[2] + (qz * p[1] - qx * p[3]),
-            qz * p[0] + qw * p[3] + (qx * p[2] - qy * p[1]),
-        ];
-        let len2 = n[0] * n[0] + n[1] * n[1] + n[2] * n[2] + n[3] * n[3];
-        if !(len2 >= f32::MIN_POSITIVE && len2.is_finite()) {
+        let n = compose(*q, p);
+        let len2 = len2(n);
+        if !regular(len2) {
             return (r, m, false);
         }
         let inv = 1.0 / sqrt(len2);
@@ -270,6 +323,98 @@ fn newton(f: &Mat3, q: &mut [f32; 4]) -> (Mat3, Mat3, bool) {
         m = rt_times(&r, f);
     }
     (r, m, false)
+}
+
+/// [`closest_rotation`] of every lane at once, for the lanes where it takes
+/// its regular path: Newton from the warm start `q`, every iteration on the
+/// concave side with a solvable Newton system, ending at the maximum. Each
+/// such lane goes through exactly the operations of [`newton`], so its `R`,
+/// `Rᵀ F` and new `q` are the bits of [`closest_rotation`]. The other lanes
+/// (a zero `F`, a half turn or gradient step, Horn's method) are marked
+/// irregular, for the caller to redo alone from the same `q`.
+///
+#[inline(always)]
+#[must_use]
+pub(crate) fn closest_rotation_lanes(f: &[[Batch; 3]; 3], q: [Batch; 4]) -> LaneRotations {
+    let mut q = q;
+    let mut r = rotation(q);
+    let mut m = rt_times(&r, f);
+    let norm2 = norm2(f);
+    let floor2 = noise_floor2(norm2.root());
+    let mut regular_lane = [false; LANES];
+    for (g, n2) in regular_lane.iter_mut().zip(norm2.0) {
+        *g = regular(n2);
+    }
+    // Lanes still iterating; each stops where `newton` returns.
+    let mut active = regular_lane;
+    let mut last2 = [f32::INFINITY; LANES];
+    for _ in 0..MAX_ITERATIONS {
+        let p = probe(&m);
+        let det = det3(p.h[0], p.h[1], p.h[2]);
+        for (j, (a, g)) in active.iter_mut().zip(regular_lane.iter_mut()).enumerate() {
+            let at = |v: Batch| v.0.get(j).copied().unwrap_or(0.0);
+            let (w2, floor2) = (at(p.w2), at(floor2));
+            let last = last2.get(j).copied().unwrap_or(f32::INFINITY);
+            if !*a {
+                continue;
+            }
+            let concave = at(p.h[0][0]) > 0.0 && at(p.minor2) > 0.0 && at(det) > 0.0;
+            if !concave {
+                (*a, *g) = (false, false);
+            } else if w2 <= floor2 || w2 >= 0.25 * last || !w2.is_finite() {
+                (*a, *g) = (false, w2 <= 64.0 * floor2);
+            } else if let Some(l) = last2.get_mut(j) {
+                *l = w2;
+            }
+        }
+        if !active.contains(&true) {
+            break;
+        }
+        let (t, det, limit) = crate::math::cramer3(&p.h, p.w);
+        let half = Batch::splat(0.5);
+        let n = compose(
+            q,
+            [Batch::splat(1.0), half * -t[0], half * -t[1], half * -t[2]],
+        );
+        let len2 = len2(n);
+        for (j, (a, g)) in active.iter_mut().zip(regular_lane.iter_mut()).enumerate() {
+            let at = |v: Batch| v.0.get(j).copied().unwrap_or(0.0);
+            let solved = at(det).abs() > at(limit) && at(det).is_finite();
+            if *a && !(solved && regular(at(len2))) {
+                (*a, *g) = (false, false);
+            }
+        }
+        let inv = Batch::splat(1.0) / len2.root();
+        let q_new = [n[0] * inv, n[1] * inv, n[2] * inv, n[3] * inv];
+        let r_new = rotation(q_new);
+        let m_new = rt_times(&r_new, f);
+        q = Batch::select(&active, q_new, q);
+        r = core::array::from_fn(|i| Batch::select(&active, r_new[i], r[i]));
+        m = core::array::from_fn(|i| Batch::select(&active, m_new[i], m[i]));
+    }
+    // Still iterating after the last iteration: `newton` gives up, Horn's
+    // method follows.
+    for (g, a) in regular_lane.iter_mut().zip(active) {
+        *g &= !a;
+    }
+    LaneRotations {
+        r,
+        m,
+        q,
+        regular: regular_lane,
+    }
+}
+
+/// What [`closest_rotation_lanes`] returns, per lane.
+pub(crate) struct LaneRotations {
+    /// The rotation `R` (rows).
+    pub(crate) r: [[Batch; 3]; 3],
+    /// `Rᵀ F`.
+    pub(crate) m: [[Batch; 3]; 3],
+    /// `R` as a unit quaternion `(w, x, y, z)`: the next warm start.
+    pub(crate) q: [Batch; 4],
+    /// Lanes that took the regular path; the others must be redone alone.
+    pub(crate) regular: [bool; LANES],
 }
 
 /// Element forces of the polar method.
@@ -293,12 +438,32 @@ pub(crate) fn forces(
     q: &mut [f32; 4],
 ) -> ElementForces {
     let f = grad_h(cur, g0);
-    let f0 = grad_h(rest, g0);
     let (r, m) = closest_rotation(&f, q);
-    let mut h = m;
+    let k = kernel(&r, &m, rest, g0, lame);
+    ElementForces {
+        f: k.f,
+        grad: k.grad,
+        energy: k.energy,
+        inverted: det3(cur[0], cur[1], cur[2]) < 0.0,
+    }
+}
+
+/// [`forces`] once the rotation `r` and `m = Rᵀ F̃` are known, for one
+/// element or one per lane.
+#[inline(always)]
+#[must_use]
+pub(crate) fn kernel<T: Real>(
+    r: &[[T; 3]; 3],
+    m: &[[T; 3]; 3],
+    rest: &[[T; 3]; 3],
+    g0: &[[T; 3]; 3],
+    lame: [T; 2],
+) -> Kernel<T> {
+    let f0 = grad_h(rest, g0);
+    let mut h = *m;
     for (hr, f0r) in h.iter_mut().zip(f0.iter()) {
         for (hij, f0ij) in hr.iter_mut().zip(f0r.iter()) {
-            *hij -= *f0ij;
+            *hij = *hij - *f0ij;
         }
     }
     let s = stress(&h, lame);
@@ -307,15 +472,14 @@ pub(crate) fn forces(
         neg_stress_times(&s, g0[1]),
         neg_stress_times(&s, g0[2]),
     ];
-    ElementForces {
+    Kernel {
         f: [
-            mat_vec(&r, local[0]),
-            mat_vec(&r, local[1]),
-            mat_vec(&r, local[2]),
+            mat_vec(r, local[0]),
+            mat_vec(r, local[1]),
+            mat_vec(r, local[2]),
         ],
-        grad: [mat_vec(&r, g0[0]), mat_vec(&r, g0[1]), mat_vec(&r, g0[2])],
+        grad: [mat_vec(r, g0[0]), mat_vec(r, g0[1]), mat_vec(r, g0[2])],
         energy: energy(&s, &h),
-        inverted: det3(cur[0], cur[1], cur[2]) < 0.0,
     }
 }
 

@@ -2,10 +2,11 @@
 //!
 //! The core is `no_std` and cannot detect CPU features; it is compiled for the
 //! target's baseline (SSE2 on x86_64). [`step`] detects AVX2 at run time and
-//! then runs [`Scene::step`] compiled for it: `Scene::step_inline` (and
-//! `step_haptic_inline`) are `#[inline(always)]` down to the element kernels on x86,
-//! so the whole step is instantiated inside the `#[target_feature]` function
-//! below. The arithmetic is the same IEEE operations in the same order either
+//! then runs [`Scene::step`] compiled for it: `Scene::step_haptic_inline` is
+//! `#[inline(always)]` down to the element kernels on x86, so the whole step is
+//! instantiated inside the `#[target_feature]` function below — once, for
+//! plain and haptic steps alike. Without AVX2 the core's own `Scene::step` (compiled
+//! once, in the core) runs. The arithmetic is the same IEEE operations in the same order either
 //! way (Rust never contracts to FMA and the `fma` feature is not enabled), so
 //! the bits are those of the baseline build;
 //! `fast_step_has_the_bits_of_the_baseline` in
@@ -62,15 +63,9 @@ fn dispatch<S: Storage>(
     if use_avx2() {
         return avx2::step(scene, target);
     }
-    run(scene, target)
-}
-
-/// The step itself, inlined into whichever instance calls it.
-#[inline(always)]
-fn run<S: Storage>(scene: &mut Scene<S>, target: Option<Vec3>) -> Result<StepStats, StepError> {
     match target {
-        Some(x) => scene.step_haptic_inline(x),
-        None => scene.step_inline(),
+        Some(x) => scene.step_haptic(x),
+        None => scene.step(),
     }
 }
 
@@ -90,7 +85,7 @@ mod avx2 {
             scene: &mut Scene<S>,
             target: Option<Vec3>,
         ) -> Result<StepStats, StepError> {
-            super::run(scene, target)
+            scene.step_haptic_inline(target)
         }
         // SAFETY: only called when `use_avx2()`, that is after
         // `is_x86_feature_detected!("avx2")` returned true.
