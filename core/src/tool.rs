@@ -125,7 +125,7 @@ impl<S: crate::Storage> crate::Scene<S> {
     /// (`StepStats::tool_force`, N) — what the device renders. On any error
     /// the target stays where it was, like the rest of the state.
     pub fn step_haptic(&mut self, target: Vec3) -> Result<crate::StepStats, crate::StepError> {
-        self.with_target(Some(target), Self::step)
+        self.with_target::<false>(Some(target))
     }
 
     /// [`Scene::step_haptic`](crate::Scene::step_haptic) inlined on x86, for
@@ -138,22 +138,28 @@ impl<S: crate::Storage> crate::Scene<S> {
         &mut self,
         target: Option<Vec3>,
     ) -> Result<crate::StepStats, crate::StepError> {
-        self.with_target(target, Self::step_inline)
+        self.with_target::<true>(target)
     }
 
-    /// Moves the tool target to `target` (m), if any, and runs `step`; puts
-    /// the target back if the step fails.
+    /// Moves the tool target to `target` (m), if any, and steps (with
+    /// [`Scene::step_inline`](crate::Scene::step_inline) if `INLINE`); puts
+    /// the target back if the step fails. (A const parameter rather than the
+    /// step passed as a function: through `FnOnce`'s shim, out of line and
+    /// compiled for the baseline, the AVX2 dispatch ran the baseline step.)
     #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
-    fn with_target(
+    fn with_target<const INLINE: bool>(
         &mut self,
         target: Option<Vec3>,
-        step: impl FnOnce(&mut Self) -> Result<crate::StepStats, crate::StepError>,
     ) -> Result<crate::StepStats, crate::StepError> {
         let previous = self.hdr.tool.target;
         if let Some(target) = target {
             self.set_tool_target(target)?;
         }
-        let stepped = step(self);
+        let stepped = if INLINE {
+            self.step_inline()
+        } else {
+            self.step()
+        };
         if stepped.is_err() {
             self.hdr.tool.target = previous;
         }
