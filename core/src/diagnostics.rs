@@ -39,13 +39,13 @@ impl<S: Storage> Scene<S> {
     pub fn elastic_energy(&mut self) -> f32 {
         let v = self.view();
         let method = v.hdr.settings.method;
-        pass::forces::<false, false>(
+        pass::forces_untouched(
             method,
             v.hdr.per_young(),
             v.nodes,
             v.elems,
             v.n_elems,
-            |_, _, _| {},
+            &mut |_, _| {},
         )
         .energy
     }
@@ -62,13 +62,13 @@ impl<S: Storage> Scene<S> {
             *f = [0.0; 3];
         }
         let method = v.hdr.settings.method;
-        let totals = pass::forces::<false, false>(
+        let totals = pass::forces_untouched(
             method,
             v.hdr.per_young(),
             v.nodes,
             v.elems,
             v.n_elems,
-            |i, f, _| {
+            &mut |i, f| {
                 if let Some(o) = out.get_mut(i) {
                     *o = add(*o, f);
                 }
@@ -100,7 +100,7 @@ impl<S: Storage> Scene<S> {
             w.d = *x;
             w.q = [0.0; 3];
         }
-        pass::stiffness(v.hdr.per_young(), v.elems, v.n_elems, v.work);
+        pass::stiffness_outside_step(v.hdr.per_young(), v.elems, v.n_elems, v.work);
         for (o, w) in out.iter_mut().zip(v.work.iter()) {
             *o = w.q;
         }

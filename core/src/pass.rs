@@ -116,6 +116,40 @@ pub(crate) fn forces<const WITH_KV: bool, const COMMIT: bool>(
     pass.totals
 }
 
+/// [`forces`] without `−K v`, for the static solver (`COMMIT`, [`forces_kept`])
+/// and the diagnostics ([`forces_untouched`]): not generic, so compiled once
+/// in this crate rather than in every crate that calls a generic
+/// `Scene<S>` method using them; the contributions go through a `dyn`
+/// callback (these passes are not in the step).
+#[cfg(feature = "statics")]
+pub(crate) fn forces_kept(
+    method: Method,
+    per_young: [f32; 2],
+    nodes: &[Node],
+    elems: &mut [ElementBlock],
+    count: usize,
+    add_to: &mut dyn FnMut(usize, Vec3),
+) -> PassTotals {
+    forces::<false, true>(method, per_young, nodes, elems, count, |i, f, _| {
+        add_to(i, f)
+    })
+}
+
+/// See [`forces_kept`]; leaves the elements untouched.
+#[cfg(feature = "diagnostics")]
+pub(crate) fn forces_untouched(
+    method: Method,
+    per_young: [f32; 2],
+    nodes: &[Node],
+    elems: &mut [ElementBlock],
+    count: usize,
+    add_to: &mut dyn FnMut(usize, Vec3),
+) -> PassTotals {
+    forces::<false, false>(method, per_young, nodes, elems, count, |i, f, _| {
+        add_to(i, f)
+    })
+}
+
 /// What every block of a force pass shares.
 struct ForcePass<'a, F> {
     method: Method,
@@ -420,6 +454,19 @@ pub(crate) fn stiffness(
             product_block(per_young, blk, tail, work);
         }
     }
+}
+
+/// [`stiffness`] compiled once in this crate, for the static solver and the
+/// diagnostics (generic `Scene<S>` methods that would otherwise compile the
+/// product into every crate calling them).
+#[cfg(any(feature = "statics", feature = "diagnostics"))]
+pub(crate) fn stiffness_outside_step(
+    per_young: [f32; 2],
+    elems: &[ElementBlock],
+    count: usize,
+    work: &mut [NodeWork],
+) {
+    stiffness(per_young, elems, count, work);
 }
 
 /// [`stiffness`] for the first `lanes` elements of one block.

@@ -114,18 +114,12 @@ impl<S: Storage> Scene<S> {
             for w in work.iter_mut() {
                 *w = NodeWork::EMPTY;
             }
-            let totals = pass::forces::<false, true>(
-                s.method,
-                per_young,
-                nodes,
-                elems,
-                n_elems,
-                |i, f, _| {
+            let totals =
+                pass::forces_kept(s.method, per_young, nodes, elems, n_elems, &mut |i, f| {
                     if let Some(w) = work.get_mut(i) {
                         w.r = add(w.r, f);
                     }
-                },
-            );
+                });
             pass::stiffness_diagonal(per_young, elems, n_elems, |i, d| {
                 if let Some(w) = work.get_mut(i) {
                     w.inv_p += d;
@@ -174,7 +168,7 @@ impl<S: Storage> Scene<S> {
             };
             if !last.converged {
                 let apply = |work: &mut [NodeWork]| {
-                    pass::stiffness(per_young, elems, n_elems, work);
+                    pass::stiffness_outside_step(per_young, elems, n_elems, work);
                     let mut dq = 0.0f32;
                     for (_n, w) in nodes.iter().zip(work.iter_mut()) {
                         // K d = −(−K d), plus the tool spring.
