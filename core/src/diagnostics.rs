@@ -39,7 +39,8 @@ impl<S: Storage> Scene<S> {
     pub fn elastic_energy(&mut self) -> f32 {
         let v = self.view();
         let method = v.hdr.settings.method;
-        pass::forces_untouched(
+        pass::forces_outside_step(
+            false,
             method,
             v.hdr.per_young(),
             v.nodes,
@@ -62,7 +63,8 @@ impl<S: Storage> Scene<S> {
             *f = [0.0; 3];
         }
         let method = v.hdr.settings.method;
-        let totals = pass::forces_untouched(
+        let totals = pass::forces_outside_step(
+            false,
             method,
             v.hdr.per_young(),
             v.nodes,

@@ -61,11 +61,18 @@ fn gather_corners<T>(
     present
 }
 
+/// Node `a`'s share `−(f_b + f_c + f_d)` of an element's `[f_b, f_c, f_d]`,
+/// which makes the element's net contribution zero exactly.
+#[inline(always)]
+fn share_of_a(f: &[Vec3; 3]) -> Vec3 {
+    neg(add(add(f[0], f[1]), f[2]))
+}
+
 /// Scatters `[f_b, f_c, f_d]` and `f_a = −(f_b + f_c + f_d)` to the four nodes
 /// through `add_to(node, value)`, in the order a, b, c, d.
 #[inline(always)]
 fn scatter(ids: [u16; 4], f: &[Vec3; 3], mut add_to: impl FnMut(usize, Vec3)) {
-    add_to(usize::from(ids[0]), neg(add(add(f[0], f[1]), f[2])));
+    add_to(usize::from(ids[0]), share_of_a(f));
     add_to(usize::from(ids[1]), f[0]);
     add_to(usize::from(ids[2]), f[1]);
     add_to(usize::from(ids[3]), f[2]);
@@ -116,13 +123,14 @@ pub(crate) fn forces<const WITH_KV: bool, const COMMIT: bool>(
     pass.totals
 }
 
-/// [`forces`] without `−K v`, for the static solver (`COMMIT`, [`forces_kept`])
-/// and the diagnostics ([`forces_untouched`]): not generic, so compiled once
-/// in this crate rather than in every crate that calls a generic
-/// `Scene<S>` method using them; the contributions go through a `dyn`
-/// callback (these passes are not in the step).
-#[cfg(feature = "statics")]
-pub(crate) fn forces_kept(
+/// [`forces`] without `−K v`, for the static solver (`commit`: the elements
+/// keep their new gradients) and the diagnostics (elements untouched): not
+/// generic, so compiled once in this crate rather than in every crate that
+/// calls a generic `Scene<S>` method using it; the contributions go through
+/// a `dyn` callback (this pass is not in the step).
+#[cfg(any(feature = "statics", feature = "diagnostics"))]
+pub(crate) fn forces_outside_step(
+    commit: bool,
     method: Method,
     per_young: [f32; 2],
     nodes: &[Node],
@@ -130,24 +138,12 @@ pub(crate) fn forces_kept(
     count: usize,
     add_to: &mut dyn FnMut(usize, Vec3),
 ) -> PassTotals {
-    forces::<false, true>(method, per_young, nodes, elems, count, |i, f, _| {
-        add_to(i, f)
-    })
-}
-
-/// See [`forces_kept`]; leaves the elements untouched.
-#[cfg(feature = "diagnostics")]
-pub(crate) fn forces_untouched(
-    method: Method,
-    per_young: [f32; 2],
-    nodes: &[Node],
-    elems: &mut [ElementBlock],
-    count: usize,
-    add_to: &mut dyn FnMut(usize, Vec3),
-) -> PassTotals {
-    forces::<false, false>(method, per_young, nodes, elems, count, |i, f, _| {
-        add_to(i, f)
-    })
+    let add_to = |i, f, _| add_to(i, f);
+    if commit {
+        forces::<false, true>(method, per_young, nodes, elems, count, add_to)
+    } else {
+        forces::<false, false>(method, per_young, nodes, elems, count, add_to)
+    }
 }
 
 /// What every block of a force pass shares.
@@ -378,7 +374,6 @@ impl<F: FnMut(usize, Vec3, Vec3)> ForcePass<'_, F> {
         let lame = crate::material::lame(blk.stiffness, self.per_young);
         let edges = Edges { rest, du, cur };
         let out = K::run(&edges, blk, lame);
-        let Edges { rest, du, .. } = edges;
         let kv = if WITH_KV {
             hform::stiffness_product(&vel, &out.k.grad, lame)
         } else {
@@ -391,7 +386,8 @@ impl<F: FnMut(usize, Vec3, Vec3)> ForcePass<'_, F> {
             }
             if !out.regular.get(j).copied().unwrap_or(false) {
                 let vel_j = vel.map(|v| Batch::lane(&v, j));
-                self.one::<WITH_KV, COMMIT>(blk, j, &lane3(&rest, j), &lane3(&du, j), &vel_j);
+                let (rest, du) = (lane3(&edges.rest, j), lane3(&edges.du, j));
+                self.one::<WITH_KV, COMMIT>(blk, j, &rest, &du, &vel_j);
                 continue;
             }
             let lane = |v: Batch| v.0.get(j).copied().unwrap_or(0.0);
@@ -420,9 +416,7 @@ impl<F: FnMut(usize, Vec3, Vec3)> ForcePass<'_, F> {
         self.totals.inverted += u32::from(out.inverted);
         self.totals.energy += out.energy;
         let f = &out.f;
-        let fa = neg(add(add(f[0], f[1]), f[2]));
-        let kva = neg(add(add(kv[0], kv[1]), kv[2]));
-        (self.add_to)(usize::from(ids[0]), fa, kva);
+        (self.add_to)(usize::from(ids[0]), share_of_a(f), share_of_a(kv));
         (self.add_to)(usize::from(ids[1]), f[0], kv[0]);
         (self.add_to)(usize::from(ids[2]), f[1], kv[1]);
         (self.add_to)(usize::from(ids[3]), f[2], kv[2]);

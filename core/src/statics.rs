@@ -114,12 +114,19 @@ impl<S: Storage> Scene<S> {
             for w in work.iter_mut() {
                 *w = NodeWork::EMPTY;
             }
-            let totals =
-                pass::forces_kept(s.method, per_young, nodes, elems, n_elems, &mut |i, f| {
+            let totals = pass::forces_outside_step(
+                true,
+                s.method,
+                per_young,
+                nodes,
+                elems,
+                n_elems,
+                &mut |i, f| {
                     if let Some(w) = work.get_mut(i) {
                         w.r = add(w.r, f);
                     }
-                });
+                },
+            );
             pass::stiffness_diagonal(per_young, elems, n_elems, |i, d| {
                 if let Some(w) = work.get_mut(i) {
                     w.inv_p += d;

@@ -26,6 +26,7 @@
 //! of ghost torques even with rest gradients.
 
 use super::hform::{energy, grad_h, neg_stress_times, stress};
+use super::qr::regular;
 use super::{Batch, ElementForces, Kernel};
 use crate::lanes::LANES;
 use crate::math::{det3, dot, mat_vec, solve3, sqrt, Mat3, Real, Vec3};
@@ -92,11 +93,11 @@ struct Probe<T> {
 fn probe<T: Real>(m: &[[T; 3]; 3]) -> Probe<T> {
     let w = [m[1][2] - m[2][1], m[2][0] - m[0][2], m[0][1] - m[1][0]];
     let tr = m[0][0] + m[1][1] + m[2][2];
-    let half = T::splat(-0.5);
+    let neg_half = T::splat(-0.5);
     let (s01, s02, s12) = (
-        half * (m[0][1] + m[1][0]),
-        half * (m[0][2] + m[2][0]),
-        half * (m[1][2] + m[2][1]),
+        neg_half * (m[0][1] + m[1][0]),
+        neg_half * (m[0][2] + m[2][0]),
+        neg_half * (m[1][2] + m[2][1]),
     );
     let h = [
         [tr - m[0][0], s01, s02],
@@ -128,12 +129,6 @@ fn compose<T: Real>(q: [T; 4], p: [T; 4]) -> [T; 4] {
 #[inline(always)]
 fn len2<T: Real>(n: [T; 4]) -> T {
     n[0] * n[0] + n[1] * n[1] + n[2] * n[2] + n[3] * n[3]
-}
-
-/// A squared length that may be divided by: normal and finite.
-#[inline(always)]
-fn regular(x2: f32) -> bool {
-    x2 >= f32::MIN_POSITIVE && x2.is_finite()
 }
 
 /// `(8 ε ‖F‖)²`: the f32 noise floor of `|w|²` when forming `M`.
@@ -332,7 +327,6 @@ fn newton(f: &Mat3, q: &mut [f32; 4]) -> (Mat3, Mat3, bool) {
 /// `Rᵀ F` and new `q` are the bits of [`closest_rotation`]. The other lanes
 /// (a zero `F`, a half turn or gradient step, Horn's method) are marked
 /// irregular, for the caller to redo alone from the same `q`.
-///
 #[inline(always)]
 #[must_use]
 pub(crate) fn closest_rotation_lanes(f: &[[Batch; 3]; 3], q: [Batch; 4]) -> LaneRotations {
