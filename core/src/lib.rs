@@ -72,8 +72,10 @@
 //! | `defmt` | `defmt::Format` on public types |
 #![no_std]
 // No unsafe code, except the square root instruction (math.rs: SSE's
-// `sqrtss` intrinsic on x86, the FPU's `vsqrt.f32` behind `fpu-sqrt`), which
-// is allowed there and nowhere else.
+// `sqrtss` intrinsic on x86, the FPU's `vsqrt.f32` behind `fpu-sqrt`), the
+// AVX2 moves between node storage and lanes (avx2.rs, x86_64 only, 16-byte
+// loads and stores inside checked slots) and the calls into them, each
+// allowed where it is and nowhere else.
 #![deny(unsafe_code)]
 #![warn(missing_docs)]
 #![cfg_attr(docsrs, feature(doc_cfg))]
@@ -81,6 +83,8 @@
 // which `x <= 0.0` is not. We use it on purpose throughout.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+#[cfg(target_arch = "x86_64")]
+mod avx2;
 mod cg;
 mod element;
 mod error;

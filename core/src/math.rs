@@ -87,7 +87,7 @@ pub(crate) fn sqrt(x: f32) -> f32 {
     target_os = "none",
     target_abi = "eabihf"
 ))]
-#[allow(unsafe_code)] // one FPU instruction (with the SSE intrinsic above, the only unsafe code of the crate)
+#[allow(unsafe_code)] // one FPU instruction
 #[inline]
 #[must_use]
 pub(crate) fn sqrt(x: f32) -> f32 {

@@ -19,6 +19,50 @@ pub(crate) struct PassTotals {
     pub(crate) energy: f32,
 }
 
+/// Where a force pass puts each element's contributions, element after
+/// element in element order.
+pub(crate) trait Sink {
+    /// Adds node `i`'s elastic force `f` and stiffness product `kv` (`−K v`),
+    /// both in N.
+    fn add(&mut self, i: usize, f: Vec3, kv: Vec3);
+    /// The node work, if this sink is [`IntoWork`] (which the AVX2 pass then
+    /// writes directly, with the same sums).
+    fn work(&mut self) -> Option<&mut [NodeWork]>;
+}
+
+/// The step's sink: `r += f`, `q += kv` of each node.
+pub(crate) struct IntoWork<'a>(pub(crate) &'a mut [NodeWork]);
+
+impl Sink for IntoWork<'_> {
+    #[inline(always)]
+    fn add(&mut self, i: usize, f: Vec3, kv: Vec3) {
+        if let Some(w) = self.0.get_mut(i) {
+            w.r = add(w.r, f);
+            w.q = add(w.q, kv);
+        }
+    }
+    #[inline(always)]
+    fn work(&mut self) -> Option<&mut [NodeWork]> {
+        Some(self.0)
+    }
+}
+
+/// Any other sink: a function `add(i, f, kv)`.
+#[cfg(any(feature = "statics", feature = "diagnostics", test))]
+pub(crate) struct Each<F>(pub(crate) F);
+
+#[cfg(any(feature = "statics", feature = "diagnostics", test))]
+impl<F: FnMut(usize, Vec3, Vec3)> Sink for Each<F> {
+    #[inline(always)]
+    fn add(&mut self, i: usize, f: Vec3, kv: Vec3) {
+        (self.0)(i, f, kv);
+    }
+    #[inline(always)]
+    fn work(&mut self) -> Option<&mut [NodeWork]> {
+        None
+    }
+}
+
 /// The four nodes of an element, or `None` if an index is out of range —
 /// impossible after `build` validated them, but the compiler cannot know, and
 /// skipping the element is both panic-free and cheaper than a fallback value.
@@ -64,7 +108,7 @@ fn gather_corners<T>(
 /// Node `a`'s share `−(f_b + f_c + f_d)` of an element's `[f_b, f_c, f_d]`,
 /// which makes the element's net contribution zero exactly.
 #[inline(always)]
-fn share_of_a(f: &[Vec3; 3]) -> Vec3 {
+pub(crate) fn share_of_a<T: Real>(f: &[[T; 3]; 3]) -> [T; 3] {
     neg(add(add(f[0], f[1]), f[2]))
 }
 
@@ -92,23 +136,24 @@ fn split(count: usize) -> (usize, usize) {
 /// its new world gradients (and polar rotation); without, elements are left
 /// untouched.
 ///
-/// `add_to(node, f_elastic, minus_k_v)` receives each contribution, element
-/// after element, in element order, whether or not elements are batched.
-/// `per_young` is the body's [`lame_per_young`](crate::material::lame_per_young).
+/// `sink` receives each contribution, element after element, in element
+/// order, whether or not elements are batched. `per_young` is the body's
+/// [`lame_per_young`](crate::material::lame_per_young). With `AVX2` (x86_64
+/// only), whole blocks move node vectors with AVX2 (`crate::avx2`), same bits.
 #[inline(always)]
-pub(crate) fn forces<const WITH_KV: bool, const COMMIT: bool>(
+pub(crate) fn forces<const WITH_KV: bool, const COMMIT: bool, const AVX2: bool>(
     method: Method,
     per_young: [f32; 2],
     nodes: &[Node],
     elems: &mut [ElementBlock],
     count: usize,
-    add_to: impl FnMut(usize, Vec3, Vec3),
+    sink: impl Sink,
 ) -> PassTotals {
-    let mut pass = ForcePass {
+    let mut pass = ForcePass::<_, AVX2> {
         method,
         per_young,
         nodes,
-        add_to,
+        sink,
         totals: PassTotals::default(),
     };
     let (whole, tail) = split(count);
@@ -138,22 +183,22 @@ pub(crate) fn forces_outside_step(
     count: usize,
     add_to: &mut dyn FnMut(usize, Vec3),
 ) -> PassTotals {
-    let add_to = |i, f, _| add_to(i, f);
+    let sink = Each(|i, f, _| add_to(i, f));
     if commit {
-        forces::<false, true>(method, per_young, nodes, elems, count, add_to)
+        forces::<false, true, false>(method, per_young, nodes, elems, count, sink)
     } else {
-        forces::<false, false>(method, per_young, nodes, elems, count, add_to)
+        forces::<false, false, false>(method, per_young, nodes, elems, count, sink)
     }
 }
 
-/// What every block of a force pass shares.
-struct ForcePass<'a, F> {
+/// What every block of a force pass shares (`AVX2` as in [`forces`]).
+struct ForcePass<'a, S, const AVX2: bool> {
     method: Method,
     /// The body's [`lame_per_young`](crate::material::lame_per_young).
     per_young: [f32; 2],
     nodes: &'a [Node],
-    /// `add_to(node, f_elastic, minus_k_v)`, see [`forces`].
-    add_to: F,
+    /// Where the contributions go, see [`forces`].
+    sink: S,
     totals: PassTotals,
 }
 
@@ -261,7 +306,7 @@ impl LaneKernel for PolarLanes {
 // Methods: functions rather than closures, inlined at each call, or a host
 // that compiles the step for another instruction set would run them compiled
 // for the baseline.
-impl<F: FnMut(usize, Vec3, Vec3)> ForcePass<'_, F> {
+impl<S: Sink, const AVX2: bool> ForcePass<'_, S, AVX2> {
     /// The first `lanes` elements of a block, batched where the target
     /// allows it.
     #[inline(always)]
@@ -349,24 +394,30 @@ impl<F: FnMut(usize, Vec3, Vec3)> ForcePass<'_, F> {
     ) {
         let zero = Batch::splat(0.0);
         // Rest positions, displacements (and velocities) in lanes.
-        let mut x0 = [[zero; 3]; 4];
-        let mut u = [[zero; 3]; 4];
-        let mut vel = [[zero; 3]; 4];
-        let present = gather_corners(
-            self.nodes,
-            blk,
-            lanes,
-            #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
-            |k, j, n: &Node| {
-                if let (Some(x0), Some(u)) = (x0.get_mut(k), u.get_mut(k)) {
-                    Batch::put(x0, j, n.x0);
-                    Batch::put(u, j, n.u);
-                }
-                if let (true, Some(v)) = (WITH_KV, vel.get_mut(k)) {
-                    Batch::put(v, j, n.v);
-                }
-            },
-        );
+        let (x0, u, vel, present) = match self.gather_avx2::<WITH_KV>(blk, lanes) {
+            Some([x0, u, vel]) => (x0, u, vel, [true; LANES]),
+            None => {
+                let mut x0 = [[zero; 3]; 4];
+                let mut u = [[zero; 3]; 4];
+                let mut vel = [[zero; 3]; 4];
+                let present = gather_corners(
+                    self.nodes,
+                    blk,
+                    lanes,
+                    #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
+                    |k, j, n: &Node| {
+                        if let (Some(x0), Some(u)) = (x0.get_mut(k), u.get_mut(k)) {
+                            Batch::put(x0, j, n.x0);
+                            Batch::put(u, j, n.u);
+                        }
+                        if let (true, Some(v)) = (WITH_KV, vel.get_mut(k)) {
+                            Batch::put(v, j, n.v);
+                        }
+                    },
+                );
+                (x0, u, vel, present)
+            }
+        };
         // The same operations as one element at a time, on every lane.
         let rest = diffs(&x0);
         let du = diffs(&u);
@@ -379,6 +430,9 @@ impl<F: FnMut(usize, Vec3, Vec3)> ForcePass<'_, F> {
         } else {
             [[zero; 3]; 3]
         };
+        if self.finish_avx2::<K, COMMIT>(blk, lanes, &present, &out, &kv) {
+            return;
+        }
         // Finish in element order.
         for j in 0..lanes {
             if !present.get(j).copied().unwrap_or(false) {
@@ -408,6 +462,66 @@ impl<F: FnMut(usize, Vec3, Vec3)> ForcePass<'_, F> {
         }
     }
 
+    /// With `AVX2`, a whole block's rest positions, displacements and (with
+    /// `WITH_V`) velocities, in lanes, gathered by `crate::avx2`; `None`
+    /// otherwise or if a node index is out of range.
+    #[inline(always)]
+    fn gather_avx2<const WITH_V: bool>(
+        &self,
+        blk: &ElementBlock,
+        lanes: usize,
+    ) -> Option<[[[Batch; 3]; 4]; 3]> {
+        #[cfg(target_arch = "x86_64")]
+        if AVX2 && lanes == LANES {
+            #[allow(unsafe_code)]
+            // SAFETY: `AVX2` is true only in `step::step_avx2`, whose callers
+            // promise a CPU with AVX2.
+            return unsafe { crate::avx2::gather_nodes::<WITH_V>(self.nodes, &blk.nodes) };
+        }
+        let _ = (blk, lanes);
+        None
+    }
+
+    /// With `AVX2`, finishes a whole block whose lanes are all present and
+    /// regular, writing into the step's node work ([`IntoWork`]) with
+    /// `crate::avx2`: the totals, the committed state and the node sums of
+    /// the per-lane finish, in its order. Returns whether it did.
+    #[inline(always)]
+    fn finish_avx2<K: LaneKernel, const COMMIT: bool>(
+        &mut self,
+        blk: &mut ElementBlock,
+        lanes: usize,
+        present: &[bool; LANES],
+        out: &LaneForces,
+        kv: &[[Batch; 3]; 3],
+    ) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        if AVX2 && lanes == LANES && present.iter().chain(&out.regular).all(|&p| p) {
+            let Some(work) = self.sink.work() else {
+                return false;
+            };
+            #[allow(unsafe_code)]
+            // SAFETY: as in `gather_avx2`.
+            if !unsafe { crate::avx2::scatter_forces(work, &blk.nodes, &out.k.f, kv) } {
+                return false;
+            }
+            for (volume, energy) in out.volume.0.iter().zip(out.k.energy.0) {
+                self.totals.inverted += u32::from(*volume < 0.0);
+                self.totals.energy += energy;
+            }
+            if COMMIT {
+                blk.grad = out.k.grad;
+                #[cfg(feature = "polar")]
+                if K::ROTATES {
+                    blk.rot = out.rot;
+                }
+            }
+            return true;
+        }
+        let _ = (blk, lanes, present, out, kv);
+        false
+    }
+
     /// Counts an element's energy and inversion, and hands `[f_b, f_c, f_d]`
     /// and `f_a = −(f_b + f_c + f_d)` (and the same of `kv`) to the four
     /// nodes `ids`, in the order a, b, c, d.
@@ -416,10 +530,11 @@ impl<F: FnMut(usize, Vec3, Vec3)> ForcePass<'_, F> {
         self.totals.inverted += u32::from(out.inverted);
         self.totals.energy += out.energy;
         let f = &out.f;
-        (self.add_to)(usize::from(ids[0]), share_of_a(f), share_of_a(kv));
-        (self.add_to)(usize::from(ids[1]), f[0], kv[0]);
-        (self.add_to)(usize::from(ids[2]), f[1], kv[1]);
-        (self.add_to)(usize::from(ids[3]), f[2], kv[2]);
+        self.sink
+            .add(usize::from(ids[0]), share_of_a(f), share_of_a(kv));
+        self.sink.add(usize::from(ids[1]), f[0], kv[0]);
+        self.sink.add(usize::from(ids[2]), f[1], kv[1]);
+        self.sink.add(usize::from(ids[3]), f[2], kv[2]);
     }
 }
 
@@ -433,7 +548,7 @@ impl<F: FnMut(usize, Vec3, Vec3)> ForcePass<'_, F> {
 /// at a time). With array-of-structs elements the same batching bought ~2 %:
 /// moving the gradients into lanes cost what the lanes saved.
 #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
-pub(crate) fn stiffness(
+pub(crate) fn stiffness<const AVX2: bool>(
     per_young: [f32; 2],
     elems: &[ElementBlock],
     count: usize,
@@ -441,11 +556,11 @@ pub(crate) fn stiffness(
 ) {
     let (whole, tail) = split(count);
     for blk in elems.iter().take(whole) {
-        product_block(per_young, blk, LANES, work);
+        product_block::<AVX2>(per_young, blk, LANES, work);
     }
     if tail > 0 {
         if let Some(blk) = elems.get(whole) {
-            product_block(per_young, blk, tail, work);
+            product_block::<AVX2>(per_young, blk, tail, work);
         }
     }
 }
@@ -460,12 +575,28 @@ pub(crate) fn stiffness_outside_step(
     count: usize,
     work: &mut [NodeWork],
 ) {
-    stiffness(per_young, elems, count, work);
+    stiffness::<false>(per_young, elems, count, work);
 }
 
-/// [`stiffness`] for the first `lanes` elements of one block.
+/// [`stiffness`] for the first `lanes` elements of one block; with `AVX2`
+/// (on x86_64 only), whole blocks move their node vectors with AVX2
+/// (`crate::avx2`), same bits.
 #[inline(always)]
-fn product_block(per_young: [f32; 2], blk: &ElementBlock, lanes: usize, work: &mut [NodeWork]) {
+fn product_block<const AVX2: bool>(
+    per_young: [f32; 2],
+    blk: &ElementBlock,
+    lanes: usize,
+    work: &mut [NodeWork],
+) {
+    #[cfg(target_arch = "x86_64")]
+    if AVX2 && lanes == LANES {
+        #[allow(unsafe_code)]
+        // SAFETY: `AVX2` is true only in `step::step_avx2`, whose callers
+        // promise a CPU with AVX2.
+        if unsafe { crate::avx2::product_block(per_young, blk, work) } {
+            return;
+        }
+    }
     if LANES == 1 {
         // One element per block (a Cortex-M4F): plain scalar code; the lane
         // bookkeeping below measured 19 instructions more per element there.
@@ -611,9 +742,11 @@ mod tests {
                 // Two passes: the second starts from the rotations the first
                 // kept, where most polar lanes take the regular path.
                 let mut add_to = add_to;
-                forces::<true, true>(method, PER_YOUNG, &nodes, &mut blocks, 20, &mut add_to);
+                let sink = Each(&mut add_to);
+                forces::<true, true, false>(method, PER_YOUNG, &nodes, &mut blocks, 20, sink);
+                let sink = Each(add_to);
                 let totals =
-                    forces::<true, true>(method, PER_YOUNG, &nodes, &mut blocks, 20, add_to);
+                    forces::<true, true, false>(method, PER_YOUNG, &nodes, &mut blocks, 20, sink);
                 for (e, el) in els.iter_mut().enumerate() {
                     *el = blocks[e / LANES].get(e % LANES);
                 }
@@ -625,7 +758,7 @@ mod tests {
                     let t = i as f32;
                     w.d = [(1.7 * t).sin(), 0.2 * t, (0.3 * t).cos()];
                 }
-                stiffness(PER_YOUNG, &blocks, 20, &mut work);
+                stiffness::<false>(PER_YOUNG, &blocks, 20, &mut work);
                 for el in els.iter() {
                     let x = el.nodes.map(|i| work[usize::from(i)].d);
                     let kd = hform::stiffness_product(&x, &el.grad, el.lame(PER_YOUNG));

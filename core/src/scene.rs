@@ -623,23 +623,26 @@ impl<S: Storage> Scene<S> {
     /// those the attempted step computed.
     ///
     /// The step itself is compiled once, in this crate, for the target's
-    /// baseline instruction set. For run-time instruction-set dispatch use
-    /// [`Scene::step_inline`].
+    /// baseline instruction set. On x86_64, [`Scene::step_avx2`] is the same
+    /// step compiled for AVX2, for hosts that detect the CPU at run time.
     pub fn step(&mut self) -> Result<StepStats, StepError> {
         crate::step::step(self.view())
     }
 
-    /// [`Scene::step`], inlined down to the element kernels on x86
-    /// (`#[inline(always)]`), so that a host can compile it for the
-    /// instruction set it detects at run time by calling it from a
-    /// `#[target_feature]` function (as `corofem_io::fast` does); the bits do
-    /// not depend on the instruction set. Each call site gets a copy of the
-    /// whole step, which is slow to compile: call it from one place. Elsewhere
-    /// than x86 the compiler decides (on a Cortex-M4F, forced inlining copied
-    /// the step into each caller: flash 37 → 56 kB).
-    #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
-    pub fn step_inline(&mut self) -> Result<StepStats, StepError> {
-        crate::step::step_inline(self.view())
+    /// [`Scene::step`] compiled for AVX2 (x86_64 only), with the same bits:
+    /// the same IEEE operations in the same order, never fused (the `fma`
+    /// feature is not enabled), with node vectors moved in and out of vector
+    /// lanes by AVX2 shuffles.
+    ///
+    /// # Safety
+    ///
+    /// The CPU must support AVX2, e.g. `std::is_x86_feature_detected!("avx2")`
+    /// returned `true` (`corofem_io::fast` does the check).
+    #[cfg(target_arch = "x86_64")]
+    #[allow(unsafe_code)]
+    pub unsafe fn step_avx2(&mut self) -> Result<StepStats, StepError> {
+        // SAFETY: the caller promises AVX2.
+        unsafe { crate::step::step_avx2(self.view()) }
     }
 
     /// A 64-bit FNV-1a hash of the bits of every displacement and velocity:

@@ -32,14 +32,23 @@ use crate::StepError;
 /// The step, compiled once in this crate: `Scene::step` of every storage type
 /// calls it, so a crate that steps scenes does not compile its own copy.
 pub(crate) fn step(v: View<'_>) -> Result<StepStats, StepError> {
-    step_inline(v)
+    step_inline::<false>(v)
 }
 
-/// The step inlined into its caller on x86, for `Scene::step_inline`
-/// (run-time instruction-set dispatch compiles it inside a
-/// `#[target_feature]` function).
+/// The step compiled for AVX2, with the bits of [`step`]: the element
+/// kernels and node loops are inlined into it (`#[inline(always)]` on x86)
+/// and the node vectors move in and out of lanes with `crate::avx2`. The
+/// caller must run on a CPU with AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+pub(crate) fn step_avx2(v: View<'_>) -> Result<StepStats, StepError> {
+    step_inline::<true>(v)
+}
+
+/// The step, inlined into [`step`] and [`step_avx2`] on x86; `AVX2` selects
+/// the AVX2 node moves.
 #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
-pub(crate) fn step_inline(v: View<'_>) -> Result<StepStats, StepError> {
+fn step_inline<const AVX2: bool>(v: View<'_>) -> Result<StepStats, StepError> {
     let View {
         hdr,
         nodes,
@@ -62,13 +71,14 @@ pub(crate) fn step_inline(v: View<'_>) -> Result<StepStats, StepError> {
         w.r = [0.0; 3];
         w.q = [0.0; 3];
     }
-    let totals =
-        pass::forces::<true, true>(s.method, per_young, nodes, elems, n_elems, |i, f, kv| {
-            if let Some(w) = work.get_mut(i) {
-                w.r = add(w.r, f);
-                w.q = add(w.q, kv);
-            }
-        });
+    let totals = pass::forces::<true, true, AVX2>(
+        s.method,
+        per_young,
+        nodes,
+        elems,
+        n_elems,
+        pass::IntoWork(work),
+    );
     hdr.inverted = totals.inverted;
 
     // Node pass: right-hand side, preconditioner, constraints, initial guess.
@@ -188,7 +198,7 @@ pub(crate) fn step_inline(v: View<'_>) -> Result<StepStats, StepError> {
         // into q = 0; returns dᵀ A d.
         #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
         |work: &mut [NodeWork]| {
-            pass::stiffness(per_young, elems, n_elems, work);
+            pass::stiffness::<AVX2>(per_young, elems, n_elems, work);
             let mut dq = 0.0f32;
             for (n, w) in nodes.iter().zip(work.iter_mut()) {
                 #[allow(unused_mut)] // only the tool adds to it

@@ -125,41 +125,36 @@ impl<S: crate::Storage> crate::Scene<S> {
     /// (`StepStats::tool_force`, N) — what the device renders. On any error
     /// the target stays where it was, like the rest of the state.
     pub fn step_haptic(&mut self, target: Vec3) -> Result<crate::StepStats, crate::StepError> {
-        self.with_target::<false>(Some(target))
+        self.with_target(target, Self::step)
     }
 
-    /// [`Scene::step_haptic`](crate::Scene::step_haptic) inlined on x86, for
-    /// run-time instruction-set dispatch: see
-    /// [`Scene::step_inline`](crate::Scene::step_inline). With `None` it is a
-    /// plain step, so that a dispatcher holds one inlined copy of the step
-    /// for both.
-    #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
-    pub fn step_haptic_inline(
+    /// [`Scene::step_haptic`](crate::Scene::step_haptic) compiled for AVX2
+    /// (x86_64 only), same bits: see [`Scene::step_avx2`](crate::Scene::step_avx2).
+    ///
+    /// # Safety
+    ///
+    /// The CPU must support AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[allow(unsafe_code)]
+    pub unsafe fn step_haptic_avx2(
         &mut self,
-        target: Option<Vec3>,
+        target: Vec3,
     ) -> Result<crate::StepStats, crate::StepError> {
-        self.with_target::<true>(target)
+        // SAFETY: the caller promises AVX2.
+        self.with_target(target, |s| unsafe { s.step_avx2() })
     }
 
-    /// Moves the tool target to `target` (m), if any, and steps (with
-    /// [`Scene::step_inline`](crate::Scene::step_inline) if `INLINE`); puts
-    /// the target back if the step fails. (A const parameter rather than the
-    /// step passed as a function: through `FnOnce`'s shim, out of line and
-    /// compiled for the baseline, the AVX2 dispatch ran the baseline step.)
-    #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
-    fn with_target<const INLINE: bool>(
+    /// Moves the tool target to `target` (m) and steps with `step`; puts the
+    /// target back if the step fails.
+    #[inline(always)]
+    fn with_target(
         &mut self,
-        target: Option<Vec3>,
+        target: Vec3,
+        step: impl FnOnce(&mut Self) -> Result<crate::StepStats, crate::StepError>,
     ) -> Result<crate::StepStats, crate::StepError> {
         let previous = self.hdr.tool.target;
-        if let Some(target) = target {
-            self.set_tool_target(target)?;
-        }
-        let stepped = if INLINE {
-            self.step_inline()
-        } else {
-            self.step()
-        };
+        self.set_tool_target(target)?;
+        let stepped = step(self);
         if stepped.is_err() {
             self.hdr.tool.target = previous;
         }

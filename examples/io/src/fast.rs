@@ -1,15 +1,12 @@
 //! Stepping with the instruction set of the CPU at hand.
 //!
-//! The core is `no_std` and cannot detect CPU features; it is compiled for the
-//! target's baseline (SSE2 on x86_64). [`step`] detects AVX2 at run time and
-//! then runs [`Scene::step`] compiled for it: `Scene::step_haptic_inline` is
-//! `#[inline(always)]` down to the element kernels on x86, so the whole step is
-//! instantiated inside the `#[target_feature]` function below — once, for
-//! plain and haptic steps alike. Without AVX2 the core's own `Scene::step` (compiled
-//! once, in the core) runs. The arithmetic is the same IEEE operations in the same order either
-//! way (Rust never contracts to FMA and the `fma` feature is not enabled), so
-//! the bits are those of the baseline build;
-//! `fast_step_has_the_bits_of_the_baseline` in
+//! The core is `no_std` and cannot detect CPU features. On x86_64 it compiles
+//! its step twice: for the target's baseline (SSE2, [`Scene::step`]) and for
+//! AVX2 ([`Scene::step_avx2`], unsafe to call without AVX2). [`step`] detects
+//! AVX2 once per process and calls the latter when it can. Both run the same
+//! IEEE operations in the same order (Rust never contracts to FMA and the
+//! `fma` feature is not enabled), so the bits are those of the baseline
+//! build; `fast_step_has_the_bits_of_the_baseline` in
 //! `host-tests/tests/determinism.rs` checks it for every method.
 //!
 //! Why AVX2 and not AVX-512, which this machine also has: with the core's
@@ -55,40 +52,24 @@ pub fn step_haptic<S: Storage>(scene: &mut Scene<S>, target: Vec3) -> Result<Ste
 }
 
 /// `step` (no target) or `step_haptic`, with AVX2 when [`use_avx2`].
+#[allow(unsafe_code)] // calling the core's AVX2 step
 fn dispatch<S: Storage>(
     scene: &mut Scene<S>,
     target: Option<Vec3>,
 ) -> Result<StepStats, StepError> {
     #[cfg(target_arch = "x86_64")]
     if use_avx2() {
-        return avx2::step(scene, target);
+        // SAFETY: `use_avx2()` is true only after
+        // `is_x86_feature_detected!("avx2")` returned true.
+        return unsafe {
+            match target {
+                Some(x) => scene.step_haptic_avx2(x),
+                None => scene.step_avx2(),
+            }
+        };
     }
     match target {
         Some(x) => scene.step_haptic(x),
         None => scene.step(),
-    }
-}
-
-#[cfg(target_arch = "x86_64")]
-mod avx2 {
-    use super::{Scene, StepError, StepStats, Storage, Vec3};
-
-    /// `step` or `step_haptic` (with a target), compiled for AVX2. No closure
-    /// crosses this boundary: a closure would be compiled for the baseline.
-    #[allow(unsafe_code)] // calling a #[target_feature] function
-    pub(super) fn step<S: Storage>(
-        scene: &mut Scene<S>,
-        target: Option<Vec3>,
-    ) -> Result<StepStats, StepError> {
-        #[target_feature(enable = "avx2")]
-        fn inner<S: Storage>(
-            scene: &mut Scene<S>,
-            target: Option<Vec3>,
-        ) -> Result<StepStats, StepError> {
-            scene.step_haptic_inline(target)
-        }
-        // SAFETY: only called when `use_avx2()`, that is after
-        // `is_x86_feature_detected!("avx2")` returned true.
-        unsafe { inner(scene, target) }
     }
 }

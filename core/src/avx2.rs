@@ -1,0 +1,325 @@
+//! AVX2 moves between node storage and lanes, for the step compiled for AVX2
+//! ([`Scene::step_avx2`](crate::Scene::step_avx2)).
+//!
+//! The element kernels are the same generic code in either build; what the
+//! compiler cannot do well from safe code is moving node vectors in and out
+//! of lanes. Built from scalars, a block's 96 gathered values went through the
+//! stack (96 scalar stores, and a failed store-to-load forward on the first
+//! vector load), and its 96 scattered sums through 96 scalar read-modify-writes
+//! (docs/bench.md). Here a node's `[x, y, z]` moves as one 16-byte row:
+//!
+//! ```text
+//! gather  8 rows [x y z ·] of a corner  → 4×4 transposes in both halves → X, Y, Z (8 lanes)
+//! scatter X, Y, Z of a corner → 8 rows [x y z 0] → row += into the node, element by element
+//! ```
+//!
+//! A row is 16 bytes read from a 12-byte field: the fourth float is the next
+//! field of the same node (checked at compile time below), read and, when
+//! scattering, written back unchanged (a blend keeps its bits). Sums are
+//! still made one node at a time in element order, with the same IEEE
+//! additions, so the bits are those of the baseline build.
+
+#![allow(unsafe_code)] // raw 16-byte loads and stores; the safety of each is argued below
+
+use core::arch::x86_64::{
+    __m128, __m256, _mm256_castps256_ps128, _mm256_extractf128_ps, _mm256_set_m128,
+    _mm256_setzero_ps, _mm256_shuffle_ps, _mm256_unpackhi_ps, _mm256_unpacklo_ps, _mm_add_ps,
+    _mm_blend_ps, _mm_loadu_ps, _mm_storeu_ps,
+};
+use core::marker::PhantomData;
+use core::mem::{offset_of, size_of, transmute};
+
+use crate::element::{hform, Batch, ElementBlock};
+use crate::lanes::{Lanes, LANES};
+use crate::math::Real;
+use crate::pass::share_of_a;
+use crate::storage::{Node, NodeWork};
+
+const _: () = assert!(LANES == 8, "the AVX2 moves fill 8 lanes");
+
+/// A `Vec3` field of a node slot, read and written as a 16-byte row: its
+/// byte offset, with the row inside the slot.
+pub(crate) trait Row {
+    /// The slot type.
+    type Slot;
+    /// Byte offset of the field in the slot.
+    const OFFSET: usize;
+}
+
+/// Checks at compile time that a 16-byte row at `offset` lies inside a slot
+/// of `size` bytes (so reading it never leaves the slot).
+const fn row_fits(offset: usize, size: usize) -> usize {
+    assert!(
+        offset + 16 <= size,
+        "a 16-byte row must stay inside its slot"
+    );
+    offset
+}
+
+macro_rules! row {
+    ($name:ident, $slot:ty, $field:ident) => {
+        #[doc = concat!("`", stringify!($slot), "::", stringify!($field), "` as a row.")]
+        pub(crate) struct $name;
+        impl Row for $name {
+            type Slot = $slot;
+            const OFFSET: usize = row_fits(offset_of!($slot, $field), size_of::<$slot>());
+        }
+    };
+}
+row!(WorkD, NodeWork, d);
+row!(WorkQ, NodeWork, q);
+row!(WorkR, NodeWork, r);
+row!(NodeX0, Node, x0);
+row!(NodeU, Node, u);
+row!(NodeV, Node, v);
+
+/// The byte offsets of a block's nodes (`index · size_of::<T>()`) in a
+/// slice of at least `len` slots `T`: every index is below `len`, checked
+/// once by [`Corners::new`] for all the gathers and scatters of the block.
+pub(crate) struct Corners<T> {
+    /// Byte offset of node `k` of lane `j`: `offsets[k][j]` (below 2²⁶:
+    /// a `u16` index times a slot of less than 1 kB; `u32` so that the
+    /// compiler computes them in vector registers).
+    offsets: [[u32; LANES]; 4],
+    /// Every index is below this.
+    len: usize,
+    slot: PhantomData<T>,
+}
+
+impl<T> Corners<T> {
+    /// The offsets of `nodes` into slots `T`, if every index is below `len`.
+    #[inline(always)]
+    pub(crate) fn new(nodes: &[[u16; LANES]; 4], len: usize) -> Option<Self> {
+        // `max` over all 32 indices, then one test (vectorised, no early exit).
+        let mut max = 0u16;
+        for c in nodes {
+            for &i in c {
+                max = max.max(i);
+            }
+        }
+        if usize::from(max) >= len {
+            return None;
+        }
+        const { assert!(size_of::<T>() < 1024, "offsets must fit in u32") };
+        let size = size_of::<T>() as u32;
+        let mut offsets = [[0; LANES]; 4];
+        for (o, c) in offsets.iter_mut().zip(nodes) {
+            for (o, &i) in o.iter_mut().zip(c) {
+                *o = u32::from(i) * size;
+            }
+        }
+        Some(Self {
+            offsets,
+            len,
+            slot: PhantomData,
+        })
+    }
+}
+
+/// The row field `R` of corner `k` (8 lanes) of `slots`, in lanes
+/// `[X, Y, Z]`; zeros if `slots` is shorter than `corners` needs.
+///
+/// # Safety
+///
+/// The CPU must support AVX2. (This and the other helpers are
+/// `#[inline(always)]` functions rather than `#[target_feature]` ones, which
+/// cannot be forced inline: inlined into the `#[target_feature]` entry points
+/// below, their intrinsics are compiled for AVX2.)
+#[inline(always)]
+unsafe fn gather<R: Row>(slots: &[R::Slot], corners: &Corners<R::Slot>, k: usize) -> [Batch; 3] {
+    let (Some(offsets), true) = (corners.offsets.get(k), slots.len() >= corners.len) else {
+        return [Batch::splat(0.0); 3];
+    };
+    let base = slots.as_ptr().cast::<u8>();
+    // SAFETY: every offset is `i · size_of::<Slot>()` with `i < corners.len
+    // ≤ slots.len()` (`Corners::new`, checked above), and the 16 bytes at
+    // `R::OFFSET` lie inside the slot (`row_fits`); `loadu` is unaligned.
+    let row =
+        |j: usize| unsafe { _mm_loadu_ps(base.add(offsets[j] as usize + R::OFFSET).cast::<f32>()) };
+    // Lanes j and j + 4 share a register: t_j = [row_j | row_{j+4}].
+    let t0 = _mm256_set_m128(row(4), row(0));
+    let t1 = _mm256_set_m128(row(5), row(1));
+    let t2 = _mm256_set_m128(row(6), row(2));
+    let t3 = _mm256_set_m128(row(7), row(3));
+    // 4×4 transpose in each half.
+    let a = _mm256_unpacklo_ps(t0, t1); // x0 x1 y0 y1 | x4 x5 y4 y5
+    let b = _mm256_unpacklo_ps(t2, t3); // x2 x3 y2 y3 | x6 x7 y6 y7
+    let c = _mm256_unpackhi_ps(t0, t1); // z0 z1 ·  ·  | z4 z5 ·  ·
+    let d = _mm256_unpackhi_ps(t2, t3); // z2 z3 ·  ·  | z6 z7 ·  ·
+    [
+        lanes(_mm256_shuffle_ps::<0x44>(a, b)), // x0 x1 x2 x3 | x4 x5 x6 x7
+        lanes(_mm256_shuffle_ps::<0xEE>(a, b)), // y0 .. y7
+        lanes(_mm256_shuffle_ps::<0x44>(c, d)), // z0 .. z7
+    ]
+}
+
+/// `[X, Y, Z]` (8 lanes) as the rows `[xⱼ, yⱼ, zⱼ, 0]` of lanes `j = 0..8`.
+///
+/// # Safety
+///
+/// The CPU must support AVX2.
+#[inline(always)]
+unsafe fn rows(v: &[Batch; 3]) -> [__m128; LANES] {
+    let [x, y, z] = v.map(vector);
+    let zero = _mm256_setzero_ps();
+    let a = _mm256_unpacklo_ps(x, y); // x0 y0 x1 y1 | x4 y4 x5 y5
+    let b = _mm256_unpackhi_ps(x, y); // x2 y2 x3 y3 | x6 y6 x7 y7
+    let c = _mm256_unpacklo_ps(z, zero); // z0 0 z1 0 | z4 0 z5 0
+    let d = _mm256_unpackhi_ps(z, zero); // z2 0 z3 0 | z6 0 z7 0
+    let r04 = _mm256_shuffle_ps::<0x44>(a, c); // x0 y0 z0 0 | x4 y4 z4 0
+    let r15 = _mm256_shuffle_ps::<0xEE>(a, c);
+    let r26 = _mm256_shuffle_ps::<0x44>(b, d);
+    let r37 = _mm256_shuffle_ps::<0xEE>(b, d);
+    [
+        _mm256_castps256_ps128(r04),
+        _mm256_castps256_ps128(r15),
+        _mm256_castps256_ps128(r26),
+        _mm256_castps256_ps128(r37),
+        _mm256_extractf128_ps::<1>(r04),
+        _mm256_extractf128_ps::<1>(r15),
+        _mm256_extractf128_ps::<1>(r26),
+        _mm256_extractf128_ps::<1>(r37),
+    ]
+}
+
+/// `slot.R += [x, y, z]` for the rows `rows[k][j] = [x, y, z, 0]` of the
+/// nodes of `corners`, lane after lane (element order), corners `a, b, c, d`
+/// in each: the sums the scalar code makes, in its order, each `field +
+/// value`; the fourth float (the next field) is written back with its own
+/// bits. Nothing if `slots` is shorter than `corners` needs.
+///
+/// # Safety
+///
+/// The CPU must support AVX2.
+#[inline(always)]
+unsafe fn scatter<R: Row>(
+    slots: &mut [R::Slot],
+    corners: &Corners<R::Slot>,
+    rows: &[[__m128; LANES]; 4],
+) {
+    if slots.len() < corners.len {
+        return;
+    }
+    let base = slots.as_mut_ptr().cast::<u8>();
+    for j in 0..LANES {
+        for (offsets, rk) in corners.offsets.iter().zip(rows) {
+            // SAFETY: as in `gather`; `slots` is borrowed mutably.
+            unsafe {
+                let p = base.add(offsets[j] as usize + R::OFFSET).cast::<f32>();
+                let old = _mm_loadu_ps(p);
+                let sum = _mm_add_ps(old, rk[j]);
+                _mm_storeu_ps(p, _mm_blend_ps::<0b0111>(old, sum));
+            }
+        }
+    }
+}
+
+/// An AVX register as lanes.
+#[inline(always)]
+fn lanes(v: __m256) -> Batch {
+    // SAFETY: both are 32 bytes of 8 `f32`s in order; every bit pattern is
+    // valid for both.
+    Lanes(unsafe { transmute::<__m256, [f32; LANES]>(v) })
+}
+
+/// Lanes as an AVX register.
+#[inline(always)]
+fn vector(v: Batch) -> __m256 {
+    // SAFETY: as in `lanes`.
+    unsafe { transmute::<[f32; LANES], __m256>(v.0) }
+}
+
+/// The stiffness product `q += −K d` of one whole block (see
+/// `pass::stiffness`): the same kernel as the baseline build, with the
+/// corners' `d` gathered and the results scattered as rows. Returns `false`,
+/// having done nothing, if a node index is out of range (impossible after
+/// `build`; the caller then takes the baseline path, which skips such
+/// elements). The caller must run on a CPU with AVX2.
+#[inline]
+#[target_feature(enable = "avx2")]
+pub(crate) fn product_block(
+    per_young: [f32; 2],
+    blk: &ElementBlock,
+    work: &mut [NodeWork],
+) -> bool {
+    let Some(corners) = Corners::<NodeWork>::new(&blk.nodes, work.len()) else {
+        return false;
+    };
+    // SAFETY (of the helpers): this function runs only on CPUs with AVX2.
+    let mut x = [[Batch::splat(0.0); 3]; 4];
+    for (k, xk) in x.iter_mut().enumerate() {
+        *xk = unsafe { gather::<WorkD>(work, &corners, k) };
+    }
+    // (`black_box`, here and below, keeps the transposes apart from the
+    // kernel: without it LLVM merged them into the kernel and computed its
+    // second half 4 lanes wide, 1 195 instructions per block instead of 630.)
+    core::hint::black_box(&mut x);
+    let lame = crate::material::lame(blk.stiffness, per_young);
+    let kd = hform::stiffness_product(&x, &blk.grad, lame);
+    // Node a's share in lanes too, before the barrier (after it, LLVM
+    // computed it half in 4-wide, half in 2-wide pieces).
+    let mut kd = [share_of_a(&kd), kd[0], kd[1], kd[2]];
+    core::hint::black_box(&mut kd);
+    // SAFETY: as above. (Not `array::map`: it was not inlined.)
+    let r = unsafe { [rows(&kd[0]), rows(&kd[1]), rows(&kd[2]), rows(&kd[3])] };
+    unsafe { scatter::<WorkQ>(work, &corners, &r) };
+    true
+}
+
+/// The rest positions, displacements and (with `WITH_V`, else zeros)
+/// velocities of a block's nodes `ids`, in lanes: `[x0, u, v]`, each
+/// `[corner][component]`; `None` if an index is out of range. The caller
+/// must run on a CPU with AVX2.
+#[inline]
+#[target_feature(enable = "avx2")]
+pub(crate) fn gather_nodes<const WITH_V: bool>(
+    nodes: &[Node],
+    ids: &[[u16; LANES]; 4],
+) -> Option<[[[Batch; 3]; 4]; 3]> {
+    let c = Corners::<Node>::new(ids, nodes.len())?;
+    let zero = [Batch::splat(0.0); 3];
+    let mut out = [[zero; 4]; 3];
+    let [x0, u, v] = &mut out;
+    // SAFETY (of the helpers): this function runs only on CPUs with AVX2.
+    for k in 0..4 {
+        x0[k] = unsafe { gather::<NodeX0>(nodes, &c, k) };
+        u[k] = unsafe { gather::<NodeU>(nodes, &c, k) };
+        if WITH_V {
+            v[k] = unsafe { gather::<NodeV>(nodes, &c, k) };
+        }
+    }
+    core::hint::black_box(&mut out); // see `product_block`
+    Some(out)
+}
+
+/// The force pass's sums for a whole block: `r += f` and `q += kv` of each
+/// node, element after element, node `a` getting `−(f_b + f_c + f_d)` (and
+/// the same of `kv`), as [`crate::pass::IntoWork`] adds them. Returns
+/// `false`, having done nothing, if a node index is out of range. The
+/// caller must run on a CPU with AVX2.
+#[inline]
+#[target_feature(enable = "avx2")]
+pub(crate) fn scatter_forces(
+    work: &mut [NodeWork],
+    ids: &[[u16; LANES]; 4],
+    f: &[[Batch; 3]; 3],
+    kv: &[[Batch; 3]; 3],
+) -> bool {
+    let Some(c) = Corners::<NodeWork>::new(ids, work.len()) else {
+        return false;
+    };
+    let mut fk = [
+        [share_of_a(f), f[0], f[1], f[2]],
+        [share_of_a(kv), kv[0], kv[1], kv[2]],
+    ];
+    core::hint::black_box(&mut fk); // see `product_block`
+    let [f, kv] = &fk;
+    // SAFETY (of the helpers): this function runs only on CPUs with AVX2.
+    unsafe {
+        let r = [rows(&f[0]), rows(&f[1]), rows(&f[2]), rows(&f[3])];
+        scatter::<WorkR>(work, &c, &r);
+        let r = [rows(&kv[0]), rows(&kv[1]), rows(&kv[2]), rows(&kv[3])];
+        scatter::<WorkQ>(work, &c, &r);
+    }
+    true
+}
