@@ -108,6 +108,9 @@ impl<T> Corners<T> {
                 *o = u32::from(i) * size;
             }
         }
+        // In memory, read back one by one where used: computed in vector
+        // registers, and not kept in (or spilled from) scalar ones.
+        core::hint::black_box(&mut offsets);
         Some(Self {
             offsets,
             len,
@@ -151,6 +154,24 @@ unsafe fn gather<R: Row>(slots: &[R::Slot], corners: &Corners<R::Slot>, k: usize
         lanes(_mm256_shuffle_ps::<0xEE>(a, b)), // y0 .. y7
         lanes(_mm256_shuffle_ps::<0x44>(c, d)), // z0 .. z7
     ]
+}
+
+/// [`gather`] of the four corners: `[corner][component]`.
+///
+/// # Safety
+///
+/// The CPU must support AVX2.
+#[inline(always)]
+unsafe fn gather4<R: Row>(slots: &[R::Slot], c: &Corners<R::Slot>) -> [[Batch; 3]; 4] {
+    // SAFETY: the caller's.
+    unsafe {
+        [
+            gather::<R>(slots, c, 0),
+            gather::<R>(slots, c, 1),
+            gather::<R>(slots, c, 2),
+            gather::<R>(slots, c, 3),
+        ]
+    }
 }
 
 /// `[X, Y, Z]` (8 lanes) as the rows `[xⱼ, yⱼ, zⱼ, 0]` of lanes `j = 0..8`.
@@ -246,10 +267,7 @@ pub(crate) fn product_block(
         return false;
     };
     // SAFETY (of the helpers): this function runs only on CPUs with AVX2.
-    let mut x = [[Batch::splat(0.0); 3]; 4];
-    for (k, xk) in x.iter_mut().enumerate() {
-        *xk = unsafe { gather::<WorkD>(work, &corners, k) };
-    }
+    let mut x = unsafe { gather4::<WorkD>(work, &corners) };
     // (`black_box`, here and below, keeps the transposes apart from the
     // kernel: without it LLVM merged them into the kernel and computed its
     // second half 4 lanes wide, 1 195 instructions per block instead of 630.)
@@ -277,17 +295,19 @@ pub(crate) fn gather_nodes<const WITH_V: bool>(
     ids: &[[u16; LANES]; 4],
 ) -> Option<[[[Batch; 3]; 4]; 3]> {
     let c = Corners::<Node>::new(ids, nodes.len())?;
-    let zero = [Batch::splat(0.0); 3];
-    let mut out = [[zero; 4]; 3];
-    let [x0, u, v] = &mut out;
     // SAFETY (of the helpers): this function runs only on CPUs with AVX2.
-    for k in 0..4 {
-        x0[k] = unsafe { gather::<NodeX0>(nodes, &c, k) };
-        u[k] = unsafe { gather::<NodeU>(nodes, &c, k) };
-        if WITH_V {
-            v[k] = unsafe { gather::<NodeV>(nodes, &c, k) };
-        }
-    }
+    // (Each array built whole: zeroing them first cost a `memset` call.)
+    let mut out = unsafe {
+        [
+            gather4::<NodeX0>(nodes, &c),
+            gather4::<NodeU>(nodes, &c),
+            if WITH_V {
+                gather4::<NodeV>(nodes, &c)
+            } else {
+                [[Batch::splat(0.0); 3]; 4]
+            },
+        ]
+    };
     core::hint::black_box(&mut out); // see `product_block`
     Some(out)
 }

@@ -510,7 +510,10 @@ impl<S: Sink, const AVX2: bool> ForcePass<'_, S, AVX2> {
                 self.totals.energy += energy;
             }
             if COMMIT {
-                blk.grad = out.k.grad;
+                // Row by row: the whole 288 bytes at once was a `memmove` call.
+                for (dst, src) in blk.grad.iter_mut().zip(&out.k.grad) {
+                    *dst = *src;
+                }
                 #[cfg(feature = "polar")]
                 if K::ROTATES {
                     blk.rot = out.rot;
