@@ -22,9 +22,10 @@
 #![allow(unsafe_code)] // raw 16-byte loads and stores; the safety of each is argued below
 
 use core::arch::x86_64::{
-    __m128, __m256, _mm256_castps256_ps128, _mm256_extractf128_ps, _mm256_set_m128,
-    _mm256_setzero_ps, _mm256_shuffle_ps, _mm256_unpackhi_ps, _mm256_unpacklo_ps, _mm_add_ps,
-    _mm_blend_ps, _mm_loadu_ps, _mm_storeu_ps,
+    __m128, __m256, _mm256_castps256_ps128, _mm256_cvtepu16_epi32, _mm256_extractf128_ps,
+    _mm256_mullo_epi32, _mm256_set1_epi32, _mm256_set_m128, _mm256_setzero_ps, _mm256_shuffle_ps,
+    _mm256_storeu_si256, _mm256_unpackhi_ps, _mm256_unpacklo_ps, _mm_add_ps, _mm_blend_ps,
+    _mm_loadu_ps, _mm_loadu_si128, _mm_storeu_ps,
 };
 use core::marker::PhantomData;
 use core::mem::{offset_of, size_of, transmute};
@@ -88,8 +89,12 @@ pub(crate) struct Corners<T> {
 
 impl<T> Corners<T> {
     /// The offsets of `nodes` into slots `T`, if every index is below `len`.
+    ///
+    /// # Safety
+    ///
+    /// The CPU must support AVX2.
     #[inline(always)]
-    pub(crate) fn new(nodes: &[[u16; LANES]; 4], len: usize) -> Option<Self> {
+    pub(crate) unsafe fn new(nodes: &[[u16; LANES]; 4], len: usize) -> Option<Self> {
         // `max` over all 32 indices, then one test (vectorised, no early exit).
         let mut max = 0u16;
         for c in nodes {
@@ -101,16 +106,19 @@ impl<T> Corners<T> {
             return None;
         }
         const { assert!(size_of::<T>() < 1024, "offsets must fit in u32") };
-        let size = size_of::<T>() as u32;
+        let size = _mm256_set1_epi32(size_of::<T>() as i32);
         let mut offsets = [[0; LANES]; 4];
+        // Widened to 32 bits and multiplied in vector registers (written as
+        // scalars, LLVM made it 32 scalar multiplications in the force pass),
+        // then read back one by one where used.
         for (o, c) in offsets.iter_mut().zip(nodes) {
-            for (o, &i) in o.iter_mut().zip(c) {
-                *o = u32::from(i) * size;
+            // SAFETY: `c` and `o` are 16 and 32 bytes (8 `u16`, 8 `u32`);
+            // AVX2 is the caller's promise.
+            unsafe {
+                let ids = _mm256_cvtepu16_epi32(_mm_loadu_si128(c.as_ptr().cast()));
+                _mm256_storeu_si256(o.as_mut_ptr().cast(), _mm256_mullo_epi32(ids, size));
             }
         }
-        // In memory, read back one by one where used: computed in vector
-        // registers, and not kept in (or spilled from) scalar ones.
-        core::hint::black_box(&mut offsets);
         Some(Self {
             offsets,
             len,
@@ -263,7 +271,8 @@ pub(crate) fn product_block(
     blk: &ElementBlock,
     work: &mut [NodeWork],
 ) -> bool {
-    let Some(corners) = Corners::<NodeWork>::new(&blk.nodes, work.len()) else {
+    // SAFETY: this function runs only on CPUs with AVX2.
+    let Some(corners) = (unsafe { Corners::<NodeWork>::new(&blk.nodes, work.len()) }) else {
         return false;
     };
     // SAFETY (of the helpers): this function runs only on CPUs with AVX2.
@@ -294,10 +303,11 @@ pub(crate) fn gather_nodes<const WITH_V: bool>(
     nodes: &[Node],
     ids: &[[u16; LANES]; 4],
 ) -> Option<[[[Batch; 3]; 4]; 3]> {
-    let c = Corners::<Node>::new(ids, nodes.len())?;
+    // SAFETY: this function runs only on CPUs with AVX2.
+    let c = unsafe { Corners::<Node>::new(ids, nodes.len()) }?;
     // SAFETY (of the helpers): this function runs only on CPUs with AVX2.
     // (Each array built whole: zeroing them first cost a `memset` call.)
-    let mut out = unsafe {
+    let out = unsafe {
         [
             gather4::<NodeX0>(nodes, &c),
             gather4::<NodeU>(nodes, &c),
@@ -308,7 +318,6 @@ pub(crate) fn gather_nodes<const WITH_V: bool>(
             },
         ]
     };
-    core::hint::black_box(&mut out); // see `product_block`
     Some(out)
 }
 
@@ -325,7 +334,8 @@ pub(crate) fn scatter_forces(
     f: &[[Batch; 3]; 3],
     kv: &[[Batch; 3]; 3],
 ) -> bool {
-    let Some(c) = Corners::<NodeWork>::new(ids, work.len()) else {
+    // SAFETY: this function runs only on CPUs with AVX2.
+    let Some(c) = (unsafe { Corners::<NodeWork>::new(ids, work.len()) }) else {
         return false;
     };
     let mut fk = [

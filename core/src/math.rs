@@ -199,11 +199,21 @@ pub(crate) fn is_finite3(a: Vec3) -> bool {
 #[must_use]
 pub(crate) fn normalize(a: Vec3) -> Option<Vec3> {
     let n2 = dot(a, a);
-    if n2 >= f32::MIN_POSITIVE && n2.is_finite() {
+    if regular(n2) {
         Some(scale(a, 1.0 / sqrt(n2)))
     } else {
         None
     }
+}
+
+/// A squared length that [`normalize`] divides by: normal and finite, i.e.
+/// between the smallest normal and the largest finite `f32` (NaN is
+/// neither). Two comparisons without a branch, so that a loop over lanes
+/// is vectorised.
+#[inline(always)]
+#[must_use]
+pub(crate) fn regular(n2: f32) -> bool {
+    (f32::MIN_POSITIVE..=f32::MAX).contains(&n2)
 }
 
 /// Determinant of the 3×3 matrix with columns `a`, `b`, `c`: `a · (b × c)`.

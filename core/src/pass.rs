@@ -213,9 +213,12 @@ trait LaneKernel {
     fn run(edges: &Edges, blk: &ElementBlock, lame: [Batch; 2]) -> LaneForces;
 }
 
-/// The edges `b − a, c − a, d − a` of a block's elements, in lanes (m).
+/// The edges `b − a, c − a, d − a` of a block's elements, in lanes (m):
+/// current, and (for the kernels that use them) rest and displacement.
 struct Edges {
+    #[cfg(feature = "polar")]
     rest: [[Batch; 3]; 3],
+    #[cfg(feature = "linear")]
     du: [[Batch; 3]; 3],
     cur: [[Batch; 3]; 3],
 }
@@ -250,7 +253,8 @@ impl<const CURRENT_B: bool> LaneKernel for QrLanes<CURRENT_B> {
         // divided by needs a fallback.
         let mut regular = [false; LANES];
         for ((r, a), b) in regular.iter_mut().zip(n1.0).zip(n3.0) {
-            *r = qr::regular(a) && qr::regular(b);
+            // `&`, not `&&`: no branch, so the loop is vectorised.
+            *r = qr::regular(a) & qr::regular(b);
         }
         LaneForces {
             k: qr::in_frame::<Batch, CURRENT_B>(&fr, &blk.rest, lame),
@@ -423,7 +427,13 @@ impl<S: Sink, const AVX2: bool> ForcePass<'_, S, AVX2> {
         let du = diffs(&u);
         let cur = element::current_edges(&rest, &du);
         let lame = crate::material::lame(blk.stiffness, self.per_young);
-        let edges = Edges { rest, du, cur };
+        let edges = Edges {
+            #[cfg(feature = "polar")]
+            rest,
+            #[cfg(feature = "linear")]
+            du,
+            cur,
+        };
         let out = K::run(&edges, blk, lame);
         let kv = if WITH_KV {
             hform::stiffness_product(&vel, &out.k.grad, lame)
@@ -439,9 +449,15 @@ impl<S: Sink, const AVX2: bool> ForcePass<'_, S, AVX2> {
                 continue;
             }
             if !out.regular.get(j).copied().unwrap_or(false) {
-                let vel_j = vel.map(|v| Batch::lane(&v, j));
-                let (rest, du) = (lane3(&edges.rest, j), lane3(&edges.du, j));
-                self.one::<WITH_KV, COMMIT>(blk, j, &rest, &du, &vel_j);
+                // The lane's edges again, from its nodes: the same
+                // subtractions, so the same bits, and the block's edges need
+                // not be kept in memory for the rare lane that needs them.
+                let corners = |x: &[[Batch; 3]; 4]| {
+                    let l = |k: usize| Batch::lane(&x[k], j);
+                    [l(0), l(1), l(2), l(3)]
+                };
+                let (rest, du) = (diffs(&corners(&x0)), diffs(&corners(&u)));
+                self.one::<WITH_KV, COMMIT>(blk, j, &rest, &du, &corners(&vel));
                 continue;
             }
             let lane = |v: Batch| v.0.get(j).copied().unwrap_or(0.0);

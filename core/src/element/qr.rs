@@ -59,12 +59,7 @@ fn with_axes<T: Real>(e1: [T; 3], e3: [T; 3], ab: [T; 3], ac: [T; 3], ad: [T; 3]
     }
 }
 
-/// A squared length that [`normalize`] divides by: normal and finite.
-#[inline(always)]
-#[must_use]
-pub(crate) fn regular(n2: f32) -> bool {
-    n2 >= f32::MIN_POSITIVE && n2.is_finite()
-}
+pub(crate) use crate::math::regular;
 
 /// Builds the QR frame of the edges `ab, ac, ad` (m).
 ///
