@@ -321,21 +321,44 @@ impl<S: Sink, const AVX2: bool> ForcePass<'_, S, AVX2> {
     ) {
         match self.method {
             #[cfg(feature = "qr")]
-            Method::Qr if LANES > 1 => self.batched::<QrLanes<true>, WITH_KV, COMMIT>(blk, lanes),
+            Method::Qr if LANES > 1 => self.lanes::<QrLanes<true>, WITH_KV, COMMIT>(blk, lanes),
             #[cfg(feature = "qr-rest-b")]
             Method::QrRestB if LANES > 1 => {
-                self.batched::<QrLanes<false>, WITH_KV, COMMIT>(blk, lanes);
+                self.lanes::<QrLanes<false>, WITH_KV, COMMIT>(blk, lanes);
             }
             #[cfg(feature = "linear")]
             Method::Linear if LANES > 1 => {
-                self.batched::<LinearLanes, WITH_KV, COMMIT>(blk, lanes);
+                self.lanes::<LinearLanes, WITH_KV, COMMIT>(blk, lanes);
             }
             #[cfg(feature = "polar")]
             Method::Polar if LANES > 1 => {
-                self.batched::<PolarLanes, WITH_KV, COMMIT>(blk, lanes);
+                self.lanes::<PolarLanes, WITH_KV, COMMIT>(blk, lanes);
             }
             _ => self.one_by_one::<WITH_KV, COMMIT>(blk, lanes),
         }
+    }
+
+    /// [`Self::batched`], inlined; with `AVX2`, a function compiled for AVX2
+    /// instead, out of line (one per kernel). Inlining every method's
+    /// batched pass into the AVX2 step as well made one huge function that
+    /// took LLVM minutes to compile.
+    #[inline(always)]
+    fn lanes<K: LaneKernel, const WITH_KV: bool, const COMMIT: bool>(
+        &mut self,
+        blk: &mut ElementBlock,
+        lanes: usize,
+    ) {
+        #[cfg(target_arch = "x86_64")]
+        if AVX2 {
+            #[allow(unsafe_code)]
+            // SAFETY: `AVX2` is true only in `step::step_avx2`, whose callers
+            // promise a CPU with AVX2.
+            unsafe {
+                batched_avx2::<S, K, AVX2, WITH_KV, COMMIT>(self, blk, lanes);
+            }
+            return;
+        }
+        self.batched::<K, WITH_KV, COMMIT>(blk, lanes);
     }
 
     /// The first `lanes` elements of a block, one at a time (every method;
@@ -555,6 +578,25 @@ impl<S: Sink, const AVX2: bool> ForcePass<'_, S, AVX2> {
         self.sink.add(usize::from(ids[2]), f[1], kv[1]);
         self.sink.add(usize::from(ids[3]), f[2], kv[2]);
     }
+}
+
+/// [`ForcePass::batched`] compiled for AVX2, out of line (see
+/// [`ForcePass::lanes`]). The caller must run on a CPU with AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+#[inline(never)]
+fn batched_avx2<
+    S: Sink,
+    K: LaneKernel,
+    const AVX2: bool,
+    const WITH_KV: bool,
+    const COMMIT: bool,
+>(
+    pass: &mut ForcePass<'_, S, AVX2>,
+    blk: &mut ElementBlock,
+    lanes: usize,
+) {
+    pass.batched::<K, WITH_KV, COMMIT>(blk, lanes);
 }
 
 /// Stiffness product `q += −K d` of the first `count` elements, with the
