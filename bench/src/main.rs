@@ -4,7 +4,7 @@
 
 mod plot;
 
-use corofem::{ElementBlock, Method, Node, NodeWork, ELEMENTS_PER_BLOCK};
+use corofem::{ElementBlock, Method, Node, NodeEntry, NodeWork, ELEMENTS_PER_BLOCK};
 use corofem_bench::reference::Model;
 use corofem_bench::scenes::{self, SceneDef};
 use plot::{loglog, Legend, Series};
@@ -187,10 +187,11 @@ fn time_round(
 // ---------------------------------------------------------------- memory
 
 fn memory(o: &Opts, md: &mut String) -> Res<()> {
-    let (node, work, elem) = (
+    let (node, work, elem, entry) = (
         std::mem::size_of::<Node>(),
         std::mem::size_of::<NodeWork>(),
         std::mem::size_of::<ElementBlock>() / ELEMENTS_PER_BLOCK,
+        std::mem::size_of::<NodeEntry>(),
     );
     let mut csv = String::from("item,bytes,note\n");
     writeln!(csv, "Node,{node},state per node (features: full)")?;
@@ -200,6 +201,10 @@ fn memory(o: &Opts, md: &mut String) -> Res<()> {
         "Element,{elem},per element: ElementBlock / ELEMENTS_PER_BLOCK (features: full)"
     )?;
     writeln!(csv, "per_node,{},Node + NodeWork", node + work)?;
+    writeln!(
+        csv,
+        "NodeEntry,{entry},per grab slot or load slot (sized per scene)"
+    )?;
     std::fs::write(o.out.join("memory.csv"), csv)?;
     let cube = (12u64 * 12 * 12 * 6, 13u64 * 13 * 13);
     writeln!(md, "## Memory (size_of, features `full`)\n")?;
@@ -210,7 +215,8 @@ fn memory(o: &Opts, md: &mut String) -> Res<()> {
     )?;
     writeln!(
         md,
-        "| **per node** | **{}** |\n| **per element** (`ElementBlock` / {ELEMENTS_PER_BLOCK}) | **{elem}** |",
+        "| **per node** | **{}** |\n| **per element** (`ElementBlock` / {ELEMENTS_PER_BLOCK}) | **{elem}** |\n\
+         | `NodeEntry`, per grab or load slot (only the nodes the tool holds or a force acts on) | {entry} |",
         node + work
     )?;
     writeln!(
@@ -219,9 +225,10 @@ fn memory(o: &Opts, md: &mut String) -> Res<()> {
          element/mod.rs; a single binary can only measure one feature set; the core unit test \
          `storage_sizes_per_feature` checks the sums): an element is 72 bytes with `qr` alone, \
          +36 with `polar` or `linear` (rest gradients), +16 with `polar` (rotation); `Node` is \
-         44 bytes, +12 with `tool` (grab offset), +12 with `loads` (external force); \
-         `NodeWork` is 52 bytes always. A `qr` scene therefore keeps 72 bytes per element and \
-         96 per node; with every feature 124 and 120.\n"
+         44 bytes and `NodeWork` 52 with every feature: the tool's grab offsets and the \
+         constant loads are 16-byte slots in lists sized per scene, one per grabbed or loaded \
+         node. A `qr` scene therefore keeps 72 bytes per element and 96 per node; with every \
+         feature 124 and 96, plus 16 per grabbed or loaded node.\n"
     )?;
     writeln!(
         md,

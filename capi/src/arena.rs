@@ -2,12 +2,12 @@
 //!
 //! ```text
 //!  caller's buffer (any address, `corofem_scene_bytes` long)
-//!  ┌─────┬──────────────┬──────────────┬──────────────────┬──────────────────┐
-//!  │ pad │ SceneHandle  │ Node × N     │ NodeWork × N     │ ElementBlock × B │
-//!  │ 0–7 │ magic, range,│ state, mass, │ CG scratch       │ rest frame,      │
-//!  │     │ Scene<Slice… │ flags, grab  │                  │ E/(36V₀), world  │
-//!  │     │              │              │                  │ gradients        │
-//!  └─────┴──────────────┴──────────────┴──────────────────┴──────────────────┘
+//!  ┌─────┬──────────────┬──────────────┬──────────────────┬──────────────────┬────────────────┐
+//!  │ pad │ SceneHandle  │ Node × N     │ NodeWork × N     │ ElementBlock × B │ NodeEntry × 2N │
+//!  │ 0–7 │ magic, range,│ state, mass, │ CG scratch       │ rest frame,      │ grab offsets,  │
+//!  │     │ Scene<Slice… │ flags        │                  │ E/(36V₀), world  │ loads: a slot  │
+//!  │     │              │              │                  │ gradients        │ of each a node │
+//!  └─────┴──────────────┴──────────────┴──────────────────┴──────────────────┴────────────────┘
 //!        ▲ the handle: aligned to 8; the arrays follow at their own alignment
 //! ```
 //!
@@ -26,7 +26,9 @@ use core::alloc::Layout;
 use core::mem::{align_of, size_of};
 use core::ptr;
 
-use corofem_core::{element_blocks, ElementBlock, Node, NodeWork, Scene, SliceStorage, StepStats};
+use corofem_core::{
+    element_blocks, ElementBlock, Node, NodeEntry, NodeWork, Scene, SliceStorage, StepStats,
+};
 
 use crate::status::Status;
 
@@ -63,6 +65,9 @@ struct Plan {
     nodes: usize,
     work: usize,
     elems: usize,
+    /// Grab slots, then load slots: `max_nodes` of each, so that any node
+    /// can be grabbed or loaded, as the C API always allowed.
+    entries: usize,
     /// Element blocks for the element capacity.
     blocks: usize,
     size: usize,
@@ -75,10 +80,14 @@ fn plan(max_nodes: usize, max_tets: usize) -> Option<Plan> {
     let (l, work) = l.extend(Layout::array::<NodeWork>(max_nodes).ok()?).ok()?;
     let blocks = element_blocks(max_tets);
     let (l, elems) = l.extend(Layout::array::<ElementBlock>(blocks).ok()?).ok()?;
+    let (l, entries) = l
+        .extend(Layout::array::<NodeEntry>(max_nodes.checked_mul(2)?).ok()?)
+        .ok()?;
     Some(Plan {
         nodes,
         work,
         elems,
+        entries,
         blocks,
         size: l.size(),
         align: l.align(),
@@ -135,9 +144,13 @@ pub unsafe fn init(
         let nodes = base.add(p.nodes).cast::<Node>();
         let work = base.add(p.work).cast::<NodeWork>();
         let elems = base.add(p.elems).cast::<ElementBlock>();
+        let grabs = base.add(p.entries).cast::<NodeEntry>();
+        let loads = grabs.add(max_nodes);
         for i in 0..max_nodes {
             nodes.add(i).write(Node::EMPTY);
             work.add(i).write(NodeWork::EMPTY);
+            grabs.add(i).write(NodeEntry::EMPTY);
+            loads.add(i).write(NodeEntry::EMPTY);
         }
         for i in 0..p.blocks {
             elems.add(i).write(ElementBlock::EMPTY);
@@ -149,7 +162,9 @@ pub unsafe fn init(
             core::slice::from_raw_parts_mut(nodes, max_nodes),
             core::slice::from_raw_parts_mut(work, max_nodes),
             core::slice::from_raw_parts_mut(elems, p.blocks),
-        );
+        )
+        .with_grabs(core::slice::from_raw_parts_mut(grabs, max_nodes))
+        .with_loads(core::slice::from_raw_parts_mut(loads, max_nodes));
         let handle = base.cast::<SceneHandle>();
         handle.write(SceneHandle {
             magic: MAGIC,
@@ -219,7 +234,7 @@ mod tests {
     fn sizes_add_up() {
         let b = scene_bytes(4, 1).unwrap();
         let parts = size_of::<SceneHandle>()
-            + 4 * (size_of::<Node>() + size_of::<NodeWork>())
+            + 4 * (size_of::<Node>() + size_of::<NodeWork>() + 2 * size_of::<NodeEntry>())
             + size_of::<ElementBlock>();
         assert!(b >= parts && b < parts + 16, "{b} vs {parts}");
         assert_eq!(scene_bytes(COROFEM_MAX_NODES + 1, 1), Err(Status::Capacity));

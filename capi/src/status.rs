@@ -105,7 +105,10 @@ impl From<Status> for Failure {
 impl From<Error> for Failure {
     fn from(e: Error) -> Self {
         let (status, at) = match e {
-            Error::TooManyNodes { .. } | Error::TooManyElements { .. } => (Status::Capacity, None),
+            Error::TooManyNodes { .. }
+            | Error::TooManyElements { .. }
+            | Error::TooManyGrabbed { .. }
+            | Error::TooManyLoads { .. } => (Status::Capacity, None),
             Error::NoElements => (Status::NoElements, None),
             Error::NonFiniteCoordinate { node } => (Status::NonFiniteCoordinate, Some(node)),
             Error::NodeIndexOutOfRange { element, .. } => (Status::IndexOutOfRange, Some(element)),

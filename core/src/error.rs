@@ -23,6 +23,20 @@ pub enum Error {
     },
     /// The mesh has no tetrahedron.
     NoElements,
+    /// More nodes to grab than the storage's grab slots (`G` of
+    /// `ArrayStorage`).
+    TooManyGrabbed {
+        /// Distinct nodes asked for.
+        count: usize,
+        /// Grab slots of the storage.
+        capacity: usize,
+    },
+    /// A force on one more node than the storage's load slots (`L` of
+    /// `ArrayStorage`).
+    TooManyLoads {
+        /// Load slots of the storage, all in use.
+        capacity: usize,
+    },
     /// A node coordinate is NaN or infinite.
     NonFiniteCoordinate {
         /// The offending node.
@@ -94,6 +108,13 @@ impl fmt::Display for Error {
                 write!(f, "{count} tetrahedra exceed the capacity of {capacity}")
             }
             Error::NoElements => write!(f, "the mesh has no tetrahedron"),
+            Error::TooManyGrabbed { count, capacity } => write!(
+                f,
+                "{count} nodes to grab exceed the storage's {capacity} grab slots"
+            ),
+            Error::TooManyLoads { capacity } => {
+                write!(f, "all {capacity} load slots of the storage are in use")
+            }
             Error::NonFiniteCoordinate { node } => {
                 write!(f, "node {node} has a NaN or infinite coordinate")
             }

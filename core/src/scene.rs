@@ -8,7 +8,7 @@ use crate::material::{
 };
 use crate::math::{add, det3, is_finite3, sub, Vec3};
 use crate::settings::{Settings, StepStats};
-use crate::storage::{ArrayStorage, Node, NodeWork, Storage, FIXED};
+use crate::storage::{ArrayStorage, Node, NodeWork, PartsMut, Storage, FIXED};
 
 #[cfg(feature = "ground")]
 use crate::ground::Plane;
@@ -41,6 +41,9 @@ pub(crate) struct Header {
     pub(crate) ground: Option<Plane>,
     #[cfg(feature = "tool")]
     pub(crate) tool: ToolState,
+    /// Entries used in the storage's load list (nodes flagged `LOADED`).
+    #[cfg(feature = "loads")]
+    pub(crate) n_loads: usize,
 }
 
 impl Header {
@@ -64,6 +67,8 @@ impl Header {
         ground: None,
         #[cfg(feature = "tool")]
         tool: ToolState::NONE,
+        #[cfg(feature = "loads")]
+        n_loads: 0,
     };
 }
 
@@ -88,15 +93,20 @@ impl Header {
 #[derive(Clone, Debug)]
 pub struct Scene<S: Storage> {
     pub(crate) hdr: Header,
-    store: S,
+    pub(crate) store: S,
 }
 
 /// A scene in fixed-capacity arrays: up to `N` nodes (at most 65 536) and
 /// `B` element blocks, that is `B × ELEMENTS_PER_BLOCK` tetrahedra; write
 /// `StaticScene<N, { corofem::element_blocks(T) }>` for `T` tetrahedra.
-pub type StaticScene<const N: usize, const B: usize> = Scene<ArrayStorage<N, B>>;
+/// `G` nodes can be held by the tool and `L` nodes carry a constant external
+/// force (16 bytes each; features `tool` and `loads`).
+pub type StaticScene<const N: usize, const B: usize, const G: usize = 0, const L: usize = 0> =
+    Scene<ArrayStorage<N, B, G, L>>;
 
-impl<const N: usize, const B: usize> Scene<ArrayStorage<N, B>> {
+impl<const N: usize, const B: usize, const G: usize, const L: usize>
+    Scene<ArrayStorage<N, B, G, L>>
+{
     /// An empty scene, in `const` context.
     #[must_use]
     pub const fn new() -> Self {
@@ -107,7 +117,9 @@ impl<const N: usize, const B: usize> Scene<ArrayStorage<N, B>> {
     }
 }
 
-impl<const N: usize, const B: usize> Default for Scene<ArrayStorage<N, B>> {
+impl<const N: usize, const B: usize, const G: usize, const L: usize> Default
+    for Scene<ArrayStorage<N, B, G, L>>
+{
     fn default() -> Self {
         Self::new()
     }
@@ -122,6 +134,12 @@ pub(crate) struct View<'a> {
     pub(crate) elems: &'a mut [ElementBlock],
     /// Number of elements (the last block may be partly used).
     pub(crate) n_elems: usize,
+    /// The grab offsets of the nodes the tool holds, in node order.
+    #[cfg(feature = "tool")]
+    pub(crate) grabs: &'a mut [crate::storage::NodeEntry],
+    /// The constant external forces, in node order.
+    #[cfg(feature = "loads")]
+    pub(crate) loads: &'a mut [crate::storage::NodeEntry],
 }
 
 /// Largest node count that `u16` indices address.
@@ -151,13 +169,21 @@ impl<S: Storage> Scene<S> {
     #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
     pub(crate) fn view(&mut self) -> View<'_> {
         let (n, e) = (self.hdr.n_nodes, self.hdr.n_elems);
-        let (nodes, work, elems) = self.store.parts_mut();
+        #[cfg(feature = "tool")]
+        let n_grabs = self.hdr.tool.count as usize;
+        #[cfg(feature = "loads")]
+        let n_loads = self.hdr.n_loads;
+        let p = self.store.parts_mut();
         View {
             hdr: &mut self.hdr,
-            nodes: nodes.get_mut(..n).unwrap_or_default(),
-            work: work.get_mut(..n).unwrap_or_default(),
-            elems: elems.get_mut(..element_blocks(e)).unwrap_or_default(),
+            nodes: p.nodes.get_mut(..n).unwrap_or_default(),
+            work: p.work.get_mut(..n).unwrap_or_default(),
+            elems: p.elems.get_mut(..element_blocks(e)).unwrap_or_default(),
             n_elems: e,
+            #[cfg(feature = "tool")]
+            grabs: p.grabs.get_mut(..n_grabs).unwrap_or_default(),
+            #[cfg(feature = "loads")]
+            loads: p.loads.get_mut(..n_loads).unwrap_or_default(),
         }
     }
 
@@ -218,7 +244,9 @@ impl<S: Storage> Scene<S> {
             return Err(Error::NonFiniteCoordinate { node });
         }
         let per_young = lame_per_young(material.poisson);
-        let (nodes, work, elems) = self.store.parts_mut();
+        let PartsMut {
+            nodes, work, elems, ..
+        } = self.store.parts_mut();
         // Pass 1: validate every element; mark used nodes in the solver
         // scratch (`inv_p`, which every step recomputes before it reads it:
         // nothing observable changes on error).
@@ -317,6 +345,10 @@ impl<S: Storage> Scene<S> {
         #[cfg(feature = "tool")]
         {
             self.hdr.tool = ToolState::NONE;
+        }
+        #[cfg(feature = "loads")]
+        {
+            self.hdr.n_loads = 0;
         }
         Ok(())
     }
@@ -543,18 +575,52 @@ impl<S: Storage> Scene<S> {
         v.hdr.any_fixed = false;
     }
 
-    /// Sets the constant external force on node `i` (N).
+    /// Sets the constant external force on node `i` (N); a zero force removes
+    /// it and frees its slot. Refused, with nothing changed, for a node out of
+    /// range, a non-finite force, or a new loaded node when every load slot
+    /// is taken ([`Error::TooManyLoads`]).
     #[cfg(feature = "loads")]
     pub fn set_force(&mut self, i: usize, force: Vec3) -> Result<(), Error> {
+        use crate::storage::LOADED;
         if !is_finite3(force) {
             return Err(Error::InvalidParameter { name: "force" });
         }
-        let n = self
-            .view()
+        let n_loads = self.hdr.n_loads;
+        let n_nodes = self.hdr.n_nodes;
+        let p = self.store.parts_mut();
+        let node = p
             .nodes
-            .get_mut(i)
+            .get_mut(..n_nodes)
+            .and_then(|n| n.get_mut(i))
             .ok_or(Error::NodeOutOfRange { node: i })?;
-        n.f_ext = force;
+        // The list is in node order: entry `at` is node i's, or where it goes.
+        let used = p.loads.get_mut(..n_loads).unwrap_or_default();
+        let at = used.partition_point(|e| (e.node as usize) < i);
+        let remove = force == [0.0; 3];
+        if node.flags & LOADED != 0 {
+            if remove {
+                used.get_mut(at..).unwrap_or_default().rotate_left(1);
+                node.flags &= !LOADED;
+                self.hdr.n_loads = n_loads - 1;
+            } else if let Some(e) = used.get_mut(at) {
+                e.value = force;
+            }
+        } else if !remove {
+            let capacity = p.loads.len();
+            let Some(grown) = p.loads.get_mut(..=n_loads) else {
+                return Err(Error::TooManyLoads { capacity });
+            };
+            let tail = grown.get_mut(at..).unwrap_or_default();
+            tail.rotate_right(1);
+            if let Some(e) = tail.first_mut() {
+                *e = crate::storage::NodeEntry {
+                    node: i as u32,
+                    value: force,
+                };
+            }
+            node.flags |= LOADED;
+            self.hdr.n_loads = n_loads + 1;
+        }
         Ok(())
     }
 
@@ -562,8 +628,9 @@ impl<S: Storage> Scene<S> {
     #[cfg(feature = "loads")]
     pub fn clear_forces(&mut self) {
         for n in self.view().nodes.iter_mut() {
-            n.f_ext = [0.0; 3];
+            n.flags &= !crate::storage::LOADED;
         }
+        self.hdr.n_loads = 0;
     }
 
     /// Sets all current positions (m); displacements follow as position − rest.

@@ -13,8 +13,12 @@ use crate::math::{add, dot, is_finite3, scale, sqrt};
 #[cfg(feature = "tool")]
 use crate::math::{axpy, sub};
 use crate::pass;
+#[cfg(any(feature = "tool", feature = "loads"))]
+use crate::storage::Entries;
 #[cfg(feature = "tool")]
 use crate::storage::GRABBED;
+#[cfg(feature = "loads")]
+use crate::storage::LOADED;
 use crate::storage::{NodeWork, Storage, FIXED};
 use crate::{Error, Scene};
 
@@ -109,6 +113,10 @@ impl<S: Storage> Scene<S> {
         let s = v.hdr.settings;
         let per_young = v.hdr.per_young();
         let (nodes, work, elems, n_elems) = (v.nodes, v.work, v.elems, v.n_elems);
+        #[cfg(feature = "tool")]
+        let grabs = &*v.grabs;
+        #[cfg(feature = "loads")]
+        let loads = &*v.loads;
         let mut last = NewtonStats::default();
         for iteration in 0..cfg.max_iterations.max(1) {
             for w in work.iter_mut() {
@@ -136,12 +144,23 @@ impl<S: Storage> Scene<S> {
             let (mut r2, mut load2) = (0.0f32, 0.0f32);
             // The same sums in f64, used only when the f32 ones overflow.
             let (mut r2_wide, mut load2_wide) = (0.0f64, 0.0f64);
+            #[cfg(feature = "tool")]
+            let mut offsets = Entries::new(grabs);
+            #[cfg(feature = "loads")]
+            let mut forces = Entries::new(loads);
             for (n, w) in nodes.iter().zip(work.iter_mut()) {
                 #[allow(unused_mut)] // only loads and the tool add to it
                 let mut load = scale(s.gravity, n.mass);
+                // (Zero added to a node without a load: the bits of the
+                // time the force was a field of every node.)
                 #[cfg(feature = "loads")]
                 {
-                    load = add(n.f_ext, load);
+                    let f_ext = if n.flags & LOADED != 0 {
+                        forces.next()
+                    } else {
+                        [0.0; 3]
+                    };
+                    load = add(f_ext, load);
                 }
                 #[allow(unused_mut)] // only the tool adds to it
                 let mut diag = w.inv_p;
@@ -149,7 +168,7 @@ impl<S: Storage> Scene<S> {
                 if n.flags & GRABBED != 0 && tool.active() {
                     load = add(
                         load,
-                        scale(sub(tool.anchor(n.grab), n.position()), tool.k_node),
+                        scale(sub(tool.anchor(offsets.next()), n.position()), tool.k_node),
                     );
                     diag += tool.k_node;
                 }

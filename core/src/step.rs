@@ -22,8 +22,12 @@ use crate::math::{add, axpy, cross, dot, is_finite3, scale, solve3, sub, Vec3};
 use crate::pass;
 use crate::scene::View;
 use crate::settings::StepStats;
+#[cfg(any(feature = "tool", feature = "loads"))]
+use crate::storage::Entries;
 #[cfg(feature = "tool")]
 use crate::storage::GRABBED;
+#[cfg(feature = "loads")]
+use crate::storage::LOADED;
 #[cfg(feature = "ground")]
 use crate::storage::RELEASED;
 use crate::storage::{Node, NodeWork, CONTACT, FIXED};
@@ -55,6 +59,10 @@ fn step_inline<const AVX2: bool>(v: View<'_>) -> Result<StepStats, StepError> {
         work,
         elems,
         n_elems,
+        #[cfg(feature = "tool")]
+        grabs,
+        #[cfg(feature = "loads")]
+        loads,
     } = v;
     let s = hdr.settings;
     let per_young = hdr.per_young();
@@ -100,10 +108,23 @@ fn step_inline<const AVX2: bool>(v: View<'_>) -> Result<StepStats, StepError> {
     let mut held = 0u32;
     #[allow(unused_mut)] // only the ground and the tool set it
     let mut isolated = !any_fixed;
+    #[cfg(feature = "tool")]
+    let mut offsets = Entries::new(grabs);
+    #[cfg(feature = "loads")]
+    let mut forces = Entries::new(loads);
     for (n, w) in nodes.iter_mut().zip(work.iter_mut()) {
         let m = n.mass;
+        // (Zero added to a node without a load, as before loads had a list
+        // of their own: the same bits.)
         #[cfg(feature = "loads")]
-        let f_el = add(w.r, n.f_ext);
+        let f_el = add(
+            w.r,
+            if n.flags & LOADED != 0 {
+                forces.next()
+            } else {
+                [0.0; 3]
+            },
+        );
         #[cfg(not(feature = "loads"))]
         let f_el = w.r;
         let mut f = add(f_el, scale(s.gravity, m));
@@ -114,7 +135,7 @@ fn step_inline<const AVX2: bool>(v: View<'_>) -> Result<StepStats, StepError> {
         if n.flags & GRABBED != 0 && tool.active() {
             // Implicit spring: f += k (anchor − x) − h k v, A += h² k.
             let k = tool.k_node;
-            f = add(f, scale(sub(tool.anchor(n.grab), n.position()), k));
+            f = add(f, scale(sub(tool.anchor(offsets.next()), n.position()), k));
             f = axpy(f, -h * k, n.v);
             p += h * h * k;
             isolated = false;
@@ -223,6 +244,8 @@ fn step_inline<const AVX2: bool>(v: View<'_>) -> Result<StepStats, StepError> {
     #[allow(unused_mut)] // only the tool adds to it
     let mut tool_force = [0.0f32; 3];
     let mut ok = true;
+    #[cfg(feature = "tool")]
+    let mut offsets = Entries::new(grabs);
     for (n, w) in nodes.iter().zip(work.iter_mut()) {
         let v = add(n.v, w.x);
         let u = axpy(n.u, h, v);
@@ -236,7 +259,7 @@ fn step_inline<const AVX2: bool>(v: View<'_>) -> Result<StepStats, StepError> {
             // The body pulls the tool with minus the spring force.
             tool_force = add(
                 tool_force,
-                scale(sub(add(n.x0, u), tool.anchor(n.grab)), tool.k_node),
+                scale(sub(add(n.x0, u), tool.anchor(offsets.next())), tool.k_node),
             );
         }
         // The position x₀ + u is what a user reads: it must be finite too

@@ -1,5 +1,5 @@
 //! Where a scene's data lives. The type that owns storage knows the capacity
-//! (`ArrayStorage<N, B>`, usable in a `static`); everything else works on
+//! (`ArrayStorage<N, B, G, L>`, usable in a `static`); everything else works on
 //! slices, so the solver is not compiled once per capacity. Elements are
 //! stored in [`ElementBlock`]s of [`ELEMENTS_PER_BLOCK`](crate::ELEMENTS_PER_BLOCK)
 //! elements each; [`element_blocks`](crate::element_blocks) gives how many a
@@ -10,9 +10,14 @@ use crate::math::Vec3;
 
 /// Node flag: the node does not move (its velocity change is filtered out).
 pub(crate) const FIXED: u8 = 1;
-/// Node flag: the node is held by the haptic tool's spring.
+/// Node flag: the node is held by the haptic tool's spring (it has an entry,
+/// its grab offset, in the storage's grab list).
 #[cfg(feature = "tool")]
 pub(crate) const GRABBED: u8 = 2;
+/// Node flag: a constant external force acts on the node (it has an entry
+/// in the storage's load list).
+#[cfg(feature = "loads")]
+pub(crate) const LOADED: u8 = 16;
 /// Node flag: the ground held this node last step but would have had to pull
 /// it; it is left free for the next step.
 #[cfg(feature = "ground")]
@@ -20,8 +25,9 @@ pub(crate) const RELEASED: u8 = 4;
 /// Node flag: the ground holds this node during the current step.
 pub(crate) const CONTACT: u8 = 8;
 
-/// Per-node state (41 bytes of data; 44 with padding, +12 with `loads`, +12
-/// with `tool`).
+/// Per-node state (41 bytes of data, 44 with padding). What only some nodes
+/// carry (a grab offset, a constant load) lives in [`NodeEntry`] lists
+/// sized per scene.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Node {
     /// Rest position (m).
@@ -32,16 +38,10 @@ pub struct Node {
     pub(crate) u: Vec3,
     /// Velocity (m/s).
     pub(crate) v: Vec3,
-    /// External force (N), constant until changed.
-    #[cfg(feature = "loads")]
-    pub(crate) f_ext: Vec3,
     /// Lumped mass (kg): a quarter of `ρ V₀` of every element around the node.
     pub(crate) mass: f32,
-    /// `FIXED | GRABBED | RELEASED | CONTACT`.
+    /// `FIXED | GRABBED | RELEASED | CONTACT | LOADED`.
     pub(crate) flags: u8,
-    /// Offset from the grabbed nodes' centroid when grabbed (m).
-    #[cfg(feature = "tool")]
-    pub(crate) grab: Vec3,
 }
 
 impl Node {
@@ -50,12 +50,8 @@ impl Node {
         x0: [0.0; 3],
         u: [0.0; 3],
         v: [0.0; 3],
-        #[cfg(feature = "loads")]
-        f_ext: [0.0; 3],
         mass: 0.0,
         flags: 0,
-        #[cfg(feature = "tool")]
-        grab: [0.0; 3],
     };
 
     /// Current position `x0 + u` (m).
@@ -106,14 +102,81 @@ impl Default for NodeWork {
     }
 }
 
-/// Storage for a scene: the node, solver-scratch and element-block slots.
-/// The capacity is the length of the slices (times
+/// A vector that only some nodes carry (16 bytes): the tool's grab offset
+/// (m, from the grabbed nodes' centroid) or a constant external force (N).
+/// A scene keeps each kind in its own list, in node order, one entry per node
+/// whose flag says it has one; the lists' lengths are capacities chosen per
+/// scene (`G` and `L` of [`ArrayStorage`]), so a node costs nothing for what
+/// it does not carry.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NodeEntry {
+    /// The node it belongs to.
+    pub(crate) node: u32,
+    /// The grab offset (m) or the force (N).
+    pub(crate) value: Vec3,
+}
+
+impl NodeEntry {
+    /// An unused slot.
+    pub const EMPTY: Self = Self {
+        node: 0,
+        value: [0.0; 3],
+    };
+}
+
+impl Default for NodeEntry {
+    fn default() -> Self {
+        Self::EMPTY
+    }
+}
+
+/// Reads a [`NodeEntry`] list alongside a walk over the nodes in order:
+/// [`Entries::next`] at each node that has the list's flag gives that node's
+/// value (zero past the end, which the lists' invariant rules out).
+#[cfg(any(feature = "tool", feature = "loads"))]
+pub(crate) struct Entries<'a>(core::slice::Iter<'a, NodeEntry>);
+
+#[cfg(any(feature = "tool", feature = "loads"))]
+impl<'a> Entries<'a> {
+    /// A walk over `list` from its first entry.
+    #[inline(always)]
+    pub(crate) fn new(list: &'a [NodeEntry]) -> Self {
+        Self(list.iter())
+    }
+
+    /// The value of the next flagged node.
+    #[inline(always)]
+    pub(crate) fn next(&mut self) -> Vec3 {
+        self.0.next().map_or([0.0; 3], |e| e.value)
+    }
+}
+
+/// Every slot of a storage, mutable: what [`Storage::parts_mut`] lends.
+#[derive(Debug)]
+pub struct PartsMut<'a> {
+    /// Node slots.
+    pub nodes: &'a mut [Node],
+    /// Solver scratch, one per node slot (the shorter of the two sets the
+    /// node capacity).
+    pub work: &'a mut [NodeWork],
+    /// Element blocks.
+    pub elems: &'a mut [ElementBlock],
+    /// Slots for the nodes the tool holds (feature `tool`; may be empty:
+    /// then nothing can be grabbed).
+    pub grabs: &'a mut [NodeEntry],
+    /// Slots for constant external forces (feature `loads`; may be empty:
+    /// then no force can be set).
+    pub loads: &'a mut [NodeEntry],
+}
+
+/// Storage for a scene: the node, solver-scratch, element-block, grab and
+/// load slots. The capacity is the length of the slices (times
 /// [`ELEMENTS_PER_BLOCK`](crate::ELEMENTS_PER_BLOCK) for elements).
 pub trait Storage {
     /// Node and element-block slots.
     fn parts(&self) -> (&[Node], &[ElementBlock]);
     /// All slots, mutable.
-    fn parts_mut(&mut self) -> (&mut [Node], &mut [NodeWork], &mut [ElementBlock]);
+    fn parts_mut(&mut self) -> PartsMut<'_>;
 }
 
 /// Borrowed storage: lets the storage live apart from the scene, e.g. an
@@ -123,23 +186,27 @@ impl<S: Storage + ?Sized> Storage for &mut S {
     fn parts(&self) -> (&[Node], &[ElementBlock]) {
         (**self).parts()
     }
-    fn parts_mut(&mut self) -> (&mut [Node], &mut [NodeWork], &mut [ElementBlock]) {
+    fn parts_mut(&mut self) -> PartsMut<'_> {
         (**self).parts_mut()
     }
 }
 
 /// Fixed-capacity storage in plain arrays: up to `N` nodes and `B` element
-/// blocks, that is `B × ELEMENTS_PER_BLOCK` tetrahedra; size `B` with
-/// [`element_blocks`](crate::element_blocks).
-/// `const fn new` lets a whole scene live in a `static`.
+/// blocks, that is `B × ELEMENTS_PER_BLOCK` tetrahedra (size `B` with
+/// [`element_blocks`](crate::element_blocks)); up to `G` nodes held by the
+/// tool (feature `tool`) and `L` nodes with a constant external force
+/// (feature `loads`), 16 bytes each. `const fn new` lets a whole scene live
+/// in a `static`.
 #[derive(Clone, Debug)]
-pub struct ArrayStorage<const N: usize, const B: usize> {
+pub struct ArrayStorage<const N: usize, const B: usize, const G: usize = 0, const L: usize = 0> {
     nodes: [Node; N],
     work: [NodeWork; N],
     elems: [ElementBlock; B],
+    grabs: [NodeEntry; G],
+    loads: [NodeEntry; L],
 }
 
-impl<const N: usize, const B: usize> ArrayStorage<N, B> {
+impl<const N: usize, const B: usize, const G: usize, const L: usize> ArrayStorage<N, B, G, L> {
     /// Empty storage.
     #[must_use]
     pub const fn new() -> Self {
@@ -147,33 +214,48 @@ impl<const N: usize, const B: usize> ArrayStorage<N, B> {
             nodes: [Node::EMPTY; N],
             work: [NodeWork::EMPTY; N],
             elems: [ElementBlock::EMPTY; B],
+            grabs: [NodeEntry::EMPTY; G],
+            loads: [NodeEntry::EMPTY; L],
         }
     }
 }
 
-impl<const N: usize, const B: usize> Default for ArrayStorage<N, B> {
+impl<const N: usize, const B: usize, const G: usize, const L: usize> Default
+    for ArrayStorage<N, B, G, L>
+{
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl<const N: usize, const B: usize> Storage for ArrayStorage<N, B> {
+impl<const N: usize, const B: usize, const G: usize, const L: usize> Storage
+    for ArrayStorage<N, B, G, L>
+{
     fn parts(&self) -> (&[Node], &[ElementBlock]) {
         (&self.nodes, &self.elems)
     }
-    fn parts_mut(&mut self) -> (&mut [Node], &mut [NodeWork], &mut [ElementBlock]) {
-        (&mut self.nodes, &mut self.work, &mut self.elems)
+    fn parts_mut(&mut self) -> PartsMut<'_> {
+        PartsMut {
+            nodes: &mut self.nodes,
+            work: &mut self.work,
+            elems: &mut self.elems,
+            grabs: &mut self.grabs,
+            loads: &mut self.loads,
+        }
     }
 }
 
 /// Storage in slices the caller owns (an arena, or vectors on a host).
 /// The node and work slices must have the same length; the shorter one sets
-/// the node capacity.
+/// the node capacity. No grab or load slots unless given with
+/// [`SliceStorage::with_grabs`] and [`SliceStorage::with_loads`].
 #[derive(Debug)]
 pub struct SliceStorage<'a> {
     nodes: &'a mut [Node],
     work: &'a mut [NodeWork],
     elems: &'a mut [ElementBlock],
+    grabs: &'a mut [NodeEntry],
+    loads: &'a mut [NodeEntry],
 }
 
 impl<'a> SliceStorage<'a> {
@@ -187,7 +269,25 @@ impl<'a> SliceStorage<'a> {
         let n = nodes.len().min(work.len());
         let (nodes, _) = nodes.split_at_mut(n);
         let (work, _) = work.split_at_mut(n);
-        Self { nodes, work, elems }
+        Self {
+            nodes,
+            work,
+            elems,
+            grabs: &mut [],
+            loads: &mut [],
+        }
+    }
+
+    /// With `grabs` as the slots for the nodes the tool holds.
+    #[must_use]
+    pub fn with_grabs(self, grabs: &'a mut [NodeEntry]) -> Self {
+        Self { grabs, ..self }
+    }
+
+    /// With `loads` as the slots for constant external forces.
+    #[must_use]
+    pub fn with_loads(self, loads: &'a mut [NodeEntry]) -> Self {
+        Self { loads, ..self }
     }
 }
 
@@ -195,8 +295,14 @@ impl Storage for SliceStorage<'_> {
     fn parts(&self) -> (&[Node], &[ElementBlock]) {
         (self.nodes, self.elems)
     }
-    fn parts_mut(&mut self) -> (&mut [Node], &mut [NodeWork], &mut [ElementBlock]) {
-        (self.nodes, self.work, self.elems)
+    fn parts_mut(&mut self) -> PartsMut<'_> {
+        PartsMut {
+            nodes: self.nodes,
+            work: self.work,
+            elems: self.elems,
+            grabs: self.grabs,
+            loads: self.loads,
+        }
     }
 }
 
@@ -208,7 +314,8 @@ mod tests {
     /// the benchmark report quote): an element is 72 bytes with `qr` (a block
     /// holds `ELEMENTS_PER_BLOCK` of them, without padding), plus the
     /// rest gradients (36) for `polar`/`linear` and the rotation (16) for
-    /// `polar`; a node is 44 + 52 bytes, plus 12 for each of `tool` and `loads`.
+    /// `polar`; a node is 44 + 52 bytes with every feature (the tool's grab
+    /// offsets and the loads are 16-byte entries in lists of their own).
     /// CI runs this with `qr` alone, with the firmware's set and with `full`.
     #[test]
     fn storage_sizes_per_feature() {
@@ -222,9 +329,8 @@ mod tests {
             core::mem::size_of::<ElementBlock>(),
             (72 + rest_grad + rot) * crate::ELEMENTS_PER_BLOCK
         );
-        let tool = if cfg!(feature = "tool") { 12 } else { 0 };
-        let loads = if cfg!(feature = "loads") { 12 } else { 0 };
-        assert_eq!(core::mem::size_of::<Node>(), 44 + tool + loads);
+        assert_eq!(core::mem::size_of::<Node>(), 44);
         assert_eq!(core::mem::size_of::<NodeWork>(), 52);
+        assert_eq!(core::mem::size_of::<NodeEntry>(), 16);
     }
 }

@@ -1,8 +1,9 @@
 //! The haptic tool: a set of grabbed nodes pulled by a spring towards a
 //! moving target — the coupling a haptic device renders.
 //!
-//! When nodes are grabbed, each remembers its offset `oᵢ` from the grabbed
-//! nodes' centroid. Node `i` is then pulled towards `target + oᵢ` by a spring
+//! When nodes are grabbed, each gets its offset `oᵢ` from the grabbed nodes'
+//! centroid, kept in the storage's grab slots (one 16-byte `NodeEntry` per
+//! grabbed node, in node order; nodes not grabbed carry nothing). Node `i` is then pulled towards `target + oᵢ` by a spring
 //! of stiffness `k / n` (n grabbed nodes), so the total force on the body is
 //! `k (target − centroid)` and the grabbed patch follows the target rigidly.
 //!
@@ -50,11 +51,16 @@ impl ToolState {
 impl<S: crate::Storage> crate::Scene<S> {
     /// Grabs `nodes` with the tool: a spring of total stiffness `stiffness`
     /// (N/m) between their centroid and the tool target, which starts at that
-    /// centroid. Replaces any previous grab. Listing a node twice grabs it once.
+    /// centroid. Replaces any previous grab. Listing a node twice grabs it
+    /// once. Each grabbed node takes one of the storage's grab slots; more
+    /// distinct nodes than slots is [`Error::TooManyGrabbed`](crate::Error::TooManyGrabbed),
+    /// and on every error nothing changes.
     pub fn grab(&mut self, nodes: &[u32], stiffness: f32) -> Result<(), crate::Error> {
         use crate::storage::GRABBED;
-        let v = self.view();
-        if let Some(&i) = nodes.iter().find(|&&i| i as usize >= v.nodes.len()) {
+        /// Flag bit set only inside this function, to count distinct nodes.
+        const LISTED: u8 = 128;
+        let n_nodes = self.hdr.n_nodes;
+        if let Some(&i) = nodes.iter().find(|&&i| i as usize >= n_nodes) {
             return Err(crate::Error::NodeOutOfRange { node: i as usize });
         }
         if nodes.is_empty() {
@@ -65,27 +71,48 @@ impl<S: crate::Storage> crate::Scene<S> {
                 name: "tool.stiffness",
             });
         }
-        for n in v.nodes.iter_mut() {
-            n.flags &= !GRABBED;
-        }
+        let p = self.store.parts_mut();
+        let all = p.nodes.get_mut(..n_nodes).unwrap_or_default();
         for &i in nodes {
-            if let Some(n) = v.nodes.get_mut(i as usize) {
-                n.flags |= GRABBED;
+            if let Some(n) = all.get_mut(i as usize) {
+                n.flags |= LISTED;
             }
         }
-        let (mut count, mut sum) = (0u32, [0.0f32; 3]);
-        for n in v.nodes.iter().filter(|n| n.flags & GRABBED != 0) {
-            count += 1;
-            sum = add(sum, n.position());
+        let count = all.iter().filter(|n| n.flags & LISTED != 0).count();
+        if count > p.grabs.len() {
+            for n in all.iter_mut() {
+                n.flags &= !LISTED;
+            }
+            return Err(crate::Error::TooManyGrabbed {
+                count,
+                capacity: p.grabs.len(),
+            });
+        }
+        let mut sum = [0.0f32; 3];
+        for n in all.iter_mut() {
+            n.flags &= !GRABBED;
+            if n.flags & LISTED != 0 {
+                n.flags = (n.flags & !LISTED) | GRABBED;
+                sum = add(sum, n.position());
+            }
         }
         let centroid = crate::math::scale(sum, 1.0 / count as f32);
-        for n in v.nodes.iter_mut().filter(|n| n.flags & GRABBED != 0) {
-            n.grab = crate::math::sub(n.position(), centroid);
+        // One entry per grabbed node, in node order (what the step's walk
+        // over the nodes expects).
+        let grabbed = all
+            .iter()
+            .enumerate()
+            .filter(|(_, n)| n.flags & GRABBED != 0);
+        for (slot, (i, n)) in p.grabs.iter_mut().zip(grabbed) {
+            *slot = crate::storage::NodeEntry {
+                node: i as u32,
+                value: crate::math::sub(n.position(), centroid),
+            };
         }
-        v.hdr.tool = ToolState {
+        self.hdr.tool = ToolState {
             k_node: stiffness / count as f32,
             target: centroid,
-            count,
+            count: count as u32,
         };
         Ok(())
     }

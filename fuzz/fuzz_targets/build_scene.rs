@@ -17,7 +17,9 @@ use libfuzzer_sys::fuzz_target;
 const N: usize = 16;
 /// Element capacity: 12 rounded up to whole blocks (16 on x86_64).
 const T: usize = corofem::element_blocks(12) * corofem::ELEMENTS_PER_BLOCK;
-type Small = StaticScene<N, { corofem::element_blocks(T) }>;
+/// Grab and load slots: fewer than the nodes, so that full lists are fuzzed too.
+const SLOTS: usize = 4;
+type Small = StaticScene<N, { corofem::element_blocks(T) }, SLOTS, SLOTS>;
 
 fuzz_target!(|data: &[u8]| {
     let _ = run(&mut Unstructured::new(data));

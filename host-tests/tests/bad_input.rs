@@ -6,7 +6,8 @@ use corofem::{
 };
 use corofem_host_tests::box_mesh;
 
-type Small = StaticScene<64, { corofem::element_blocks(128) }>;
+// A grab and a load slot for every node.
+type Small = StaticScene<64, { corofem::element_blocks(128) }, 64, 64>;
 
 /// A built, stepped scene and a fingerprint of everything observable.
 fn scene() -> Small {

@@ -22,7 +22,8 @@ fn run(method: Method, fast: bool) -> u64 {
     let mut nodes = [[0.0f32; 3]; 99];
     let mut tets = [[0u32; 4]; 240];
     mesh.generate(&mut nodes, &mut tets).unwrap();
-    let mut s: Box<StaticScene<99, { corofem::element_blocks(240) }>> =
+    // Grab slots for every node: the tool holds the beam's end face.
+    let mut s: Box<StaticScene<99, { corofem::element_blocks(240) }, 99>> =
         Box::new(StaticScene::new());
     s.build(
         &nodes,

@@ -20,7 +20,9 @@ mod measure;
 #[allow(dead_code)] // SIZES and REFERENCE are for the host test and CI
 mod scene;
 
-use corofem::{element_blocks, BoxMesh, ElementBlock, Node, NodeWork, Scene, SliceStorage, Vec3};
+use corofem::{
+    element_blocks, BoxMesh, ElementBlock, Node, NodeEntry, NodeWork, Scene, SliceStorage, Vec3,
+};
 use cortex_m_rt::entry;
 use cortex_m_semihosting::debug::{self, EXIT_FAILURE, EXIT_SUCCESS};
 
@@ -37,6 +39,8 @@ const N: usize = MESH.node_count();
 const T: usize = MESH.tet_count();
 /// Element blocks for `T` elements (one element per block on this target).
 const B: usize = element_blocks(T);
+/// Grab slots: the nodes of the face the tool holds.
+const G: usize = scene::grabbed_nodes(CELLS);
 
 /// Steps timed with 1 CG iteration after the run, to split the cost of a
 /// step into its element/node passes and its CG iterations.
@@ -55,7 +59,8 @@ fn main() -> ! {
     static mut NODES: [Node; N] = [Node::EMPTY; N];
     static mut WORK: [NodeWork; N] = [NodeWork::EMPTY; N];
     static mut ELEMS: [ElementBlock; B] = [ElementBlock::EMPTY; B];
-    let mut scene = Scene::with_storage(SliceStorage::new(NODES, WORK, ELEMS));
+    static mut GRABS: [NodeEntry; G] = [NodeEntry::EMPTY; G];
+    let mut scene = Scene::with_storage(SliceStorage::new(NODES, WORK, ELEMS).with_grabs(GRABS));
     let ok = run(&mut scene);
     debug::exit(if ok { EXIT_SUCCESS } else { EXIT_FAILURE });
     #[allow(clippy::empty_loop)]

@@ -73,6 +73,13 @@ pub const fn mesh(cells: [u32; 3]) -> BoxMesh {
     }
 }
 
+/// Nodes the tool grabs on the beam of `cells`, its end face:
+/// `(cy + 1)(cz + 1)` (the storage's grab slots, `G`).
+#[must_use]
+pub const fn grabbed_nodes(cells: [u32; 3]) -> usize {
+    (cells[1] as usize + 1).saturating_mul(cells[2] as usize + 1)
+}
+
 /// Nodes of the face `x = i · CELL` of the beam, written into `out`
 /// (node `(i, j, k)` has index `i + (cx+1)(j + (cy+1) k)`, see `BoxMesh`).
 fn face(cells: [u32; 3], i: u32, out: &mut [u32; MAX_FACE_NODES]) -> &[u32] {
@@ -99,8 +106,7 @@ pub fn setup<S: Storage>(
     nodes: &mut [Vec3],
     tets: &mut [[u32; 4]],
 ) -> Result<Vec3, Error> {
-    let face_nodes = (cells[1] as usize + 1).saturating_mul(cells[2] as usize + 1);
-    if face_nodes > MAX_FACE_NODES {
+    if grabbed_nodes(cells) > MAX_FACE_NODES {
         return Err(Error::InvalidParameter { name: "cells" });
     }
     let (n, t) = mesh(cells).generate(nodes, tets)?;

@@ -2,7 +2,7 @@
 //! read mesh to the core's input types — for host programs and tests whose
 //! meshes are only known at run time.
 
-use corofem::{element_blocks, ElementBlock, Node, NodeWork, Scene, Storage};
+use corofem::{element_blocks, ElementBlock, Node, NodeEntry, NodeWork, PartsMut, Scene, Storage};
 
 use crate::Mesh;
 
@@ -12,6 +12,9 @@ pub struct HeapStorage {
     nodes: Vec<Node>,
     work: Vec<NodeWork>,
     elems: Vec<ElementBlock>,
+    /// Grab and load slots: one per node, so any node can be grabbed or loaded.
+    grabs: Vec<NodeEntry>,
+    loads: Vec<NodeEntry>,
 }
 
 impl HeapStorage {
@@ -20,6 +23,8 @@ impl HeapStorage {
         Self {
             nodes: vec![Node::EMPTY; nodes],
             work: vec![NodeWork::EMPTY; nodes],
+            grabs: vec![NodeEntry::EMPTY; nodes],
+            loads: vec![NodeEntry::EMPTY; nodes],
             elems: vec![ElementBlock::EMPTY; element_blocks(elems)],
         }
     }
@@ -29,8 +34,14 @@ impl Storage for HeapStorage {
     fn parts(&self) -> (&[Node], &[ElementBlock]) {
         (&self.nodes, &self.elems)
     }
-    fn parts_mut(&mut self) -> (&mut [Node], &mut [NodeWork], &mut [ElementBlock]) {
-        (&mut self.nodes, &mut self.work, &mut self.elems)
+    fn parts_mut(&mut self) -> PartsMut<'_> {
+        PartsMut {
+            nodes: &mut self.nodes,
+            work: &mut self.work,
+            elems: &mut self.elems,
+            grabs: &mut self.grabs,
+            loads: &mut self.loads,
+        }
     }
 }
 

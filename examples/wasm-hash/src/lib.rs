@@ -9,7 +9,7 @@
 #[path = "../../firmware/src/scene.rs"]
 mod scene;
 
-use corofem::{element_blocks, ElementBlock, Node, NodeWork, Scene, SliceStorage};
+use corofem::{element_blocks, ElementBlock, Node, NodeEntry, NodeWork, Scene, SliceStorage};
 
 /// Node and element capacity: the largest of `scene::SIZES`.
 const CAPACITY: (usize, usize) = {
@@ -37,9 +37,12 @@ pub extern "C" fn scene_hash(cx: u32, cy: u32, cz: u32) -> u64 {
     let mut nodes = [Node::EMPTY; N];
     let mut work = [NodeWork::EMPTY; N];
     let mut elems = [ElementBlock::EMPTY; element_blocks(T)];
+    let mut grabs = [NodeEntry::EMPTY; scene::MAX_FACE_NODES];
     let mut mesh_nodes = [[0.0f32; 3]; N];
     let mut mesh_tets = [[0u32; 4]; T];
-    let mut s = Scene::with_storage(SliceStorage::new(&mut nodes, &mut work, &mut elems));
+    let mut s = Scene::with_storage(
+        SliceStorage::new(&mut nodes, &mut work, &mut elems).with_grabs(&mut grabs),
+    );
     let Ok(start) = scene::setup(&mut s, [cx, cy, cz], &mut mesh_nodes, &mut mesh_tets) else {
         return 0;
     };

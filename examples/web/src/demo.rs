@@ -10,8 +10,8 @@
 use std::collections::HashMap;
 
 use corofem::{
-    BoxMesh, BuildOptions, ElementBlock, Material, Method, Node, NodeWork, Plane, Scene, Settings,
-    Storage,
+    BoxMesh, BuildOptions, ElementBlock, Material, Method, Node, NodeEntry, NodeWork, PartsMut,
+    Plane, Scene, Settings, Storage,
 };
 
 /// Scene storage in vectors sized at run time (the body can come from a file).
@@ -20,6 +20,9 @@ pub struct VecStorage {
     nodes: Vec<Node>,
     work: Vec<NodeWork>,
     elems: Vec<ElementBlock>,
+    /// Grab and load slots: one per node, so any node can be grabbed or loaded.
+    grabs: Vec<NodeEntry>,
+    loads: Vec<NodeEntry>,
 }
 
 impl VecStorage {
@@ -28,6 +31,8 @@ impl VecStorage {
         Self {
             nodes: vec![Node::EMPTY; nodes],
             work: vec![NodeWork::EMPTY; nodes],
+            grabs: vec![NodeEntry::EMPTY; nodes],
+            loads: vec![NodeEntry::EMPTY; nodes],
             elems: vec![ElementBlock::EMPTY; corofem::element_blocks(elems)],
         }
     }
@@ -37,8 +42,14 @@ impl Storage for VecStorage {
     fn parts(&self) -> (&[Node], &[ElementBlock]) {
         (&self.nodes, &self.elems)
     }
-    fn parts_mut(&mut self) -> (&mut [Node], &mut [NodeWork], &mut [ElementBlock]) {
-        (&mut self.nodes, &mut self.work, &mut self.elems)
+    fn parts_mut(&mut self) -> PartsMut<'_> {
+        PartsMut {
+            nodes: &mut self.nodes,
+            work: &mut self.work,
+            elems: &mut self.elems,
+            grabs: &mut self.grabs,
+            loads: &mut self.loads,
+        }
     }
 }
 
