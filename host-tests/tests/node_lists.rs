@@ -4,7 +4,7 @@
 //! change nothing; the order in which forces are set, replaced and removed
 //! does not change the results.
 
-use corofem::{BuildOptions, Error, Material, StaticScene, StepStats};
+use corofem::{BuildOptions, Error, Material, Scene, StaticScene, StepStats, Storage};
 use corofem_host_tests::box_mesh;
 
 /// 2 grab slots and 2 load slots.
@@ -18,8 +18,15 @@ const F5_LATER: [f32; 3] = [-1.0, 0.0, 3.0];
 /// The 2 m × 1 m × 1 m block of 12 tetrahedra and 12 nodes (node
 /// `i + 3 (j + 2 k)` at `(i, j, k)` m), its face x = 0 fixed.
 fn scene() -> Tight {
-    let mesh = box_mesh([2.0, 1.0, 1.0], [2, 1, 1], 6);
     let mut s = Tight::new();
+    build(&mut s);
+    s.fix_nodes(&[0, 3, 6, 9]).unwrap();
+    s
+}
+
+/// (Re)builds the block into `s`.
+fn build<S: Storage>(s: &mut Scene<S>) {
+    let mesh = box_mesh([2.0, 1.0, 1.0], [2, 1, 1], 6);
     s.build(
         &mesh.nodes,
         &mesh.tets,
@@ -27,8 +34,6 @@ fn scene() -> Tight {
         BuildOptions::default(),
     )
     .unwrap();
-    s.fix_nodes(&[0, 3, 6, 9]).unwrap();
-    s
 }
 
 /// Steps `s` 20 times (1 ms, the default settings) and returns the last
@@ -113,30 +118,15 @@ fn forces_give_the_same_bits_whatever_order_they_are_set_in() {
         fresh.set_force(4, F5),
         Err(Error::TooManyLoads { capacity: 2 })
     );
-    let mesh = box_mesh([2.0, 1.0, 1.0], [2, 1, 1], 6);
-    fresh
-        .build(
-            &mesh.nodes,
-            &mesh.tets,
-            &Material::default(),
-            BuildOptions::default(),
-        )
-        .unwrap();
+    build(&mut fresh);
     fresh.set_force(4, F5).unwrap();
     fresh.set_force(8, F5).unwrap();
 }
 
 #[test]
 fn a_scene_without_slots_refuses_every_grab_and_load() {
-    let mesh = box_mesh([2.0, 1.0, 1.0], [2, 1, 1], 6);
     let mut s = StaticScene::<64, { corofem::element_blocks(128) }>::new();
-    s.build(
-        &mesh.nodes,
-        &mesh.tets,
-        &Material::default(),
-        BuildOptions::default(),
-    )
-    .unwrap();
+    build(&mut s);
     assert_eq!(
         s.grab(&[3], 10.0),
         Err(Error::TooManyGrabbed {
