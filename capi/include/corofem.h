@@ -164,11 +164,27 @@ const char *corofem_status_str(int32_t status);
 // `out_bytes` is null or writable.
 corofem_status corofem_scene_bytes(size_t max_nodes, size_t max_tets, size_t *out_bytes);
 
+// `corofem_scene_bytes` for a scene whose tool holds at most `max_grabbed`
+// nodes at once and on which at most `max_loaded` nodes carry a constant
+// force (each at most `max_nodes`; 16 bytes per slot, against a slot of
+// each kind per node in `corofem_scene_bytes`). A grab or a force beyond
+// them is then `COROFEM_STATUS_CAPACITY`.
+//
+// # Safety
+//
+// `out_bytes` is null or writable.
+corofem_status corofem_scene_bytes_sized(size_t max_nodes,
+                                         size_t max_tets,
+                                         size_t max_grabbed,
+                                         size_t max_loaded,
+                                         size_t *out_bytes);
+
 // Initialises an empty scene of up to `max_nodes` nodes and `max_tets`
 // tetrahedra in the caller's `buffer` of `buffer_bytes` bytes (at least
 // `corofem_scene_bytes`) and writes its handle to `*out_scene`. The handle
 // points inside the buffer; the buffer must stay in place, unused by
-// anything else, while the scene lives. Nothing is allocated.
+// anything else, while the scene lives. Nothing is allocated. Any node can
+// be grabbed or loaded (`corofem_scene_init_sized` reserves fewer slots).
 //
 // # Safety
 //
@@ -179,6 +195,20 @@ corofem_status corofem_scene_init(void *buffer,
                                   size_t max_nodes,
                                   size_t max_tets,
                                   corofem_scene **out_scene);
+
+// `corofem_scene_init` with at most `max_grabbed` grabbed and `max_loaded`
+// loaded nodes (see `corofem_scene_bytes_sized`, which sizes the buffer).
+//
+// # Safety
+//
+// As `corofem_scene_init`.
+corofem_status corofem_scene_init_sized(void *buffer,
+                                        size_t buffer_bytes,
+                                        size_t max_nodes,
+                                        size_t max_tets,
+                                        size_t max_grabbed,
+                                        size_t max_loaded,
+                                        corofem_scene **out_scene);
 
 // Ends a scene: every later call with this handle returns
 // `COROFEM_STATUS_INVALID_HANDLE`, and the buffer may be reused or freed.

@@ -11,7 +11,7 @@ use core::ffi::c_char;
 
 use corofem_core::{BoxMesh, BuildOptions, Vec3};
 
-use crate::arena::{self, SceneHandle};
+use crate::arena::{self, SceneHandle, Slots};
 use crate::ptr::{disjoint, get, input, out, out_opt, output, span};
 use crate::status::{Failure, Status};
 use crate::types::{method_from_code, Material, Settings, Stats, COROFEM_BUILD_REORIENT};
@@ -72,7 +72,36 @@ pub unsafe extern "C" fn corofem_scene_bytes(
     status((|| {
         // SAFETY: the caller's contract for `out_bytes`.
         let o = unsafe { out(out_bytes, None)? };
-        *o = arena::scene_bytes(max_nodes, max_tets)?;
+        *o = arena::scene_bytes(max_nodes, max_tets, Slots::every_node(max_nodes))?;
+        Ok(())
+    })())
+}
+
+/// `corofem_scene_bytes` for a scene whose tool holds at most `max_grabbed`
+/// nodes at once and on which at most `max_loaded` nodes carry a constant
+/// force (each at most `max_nodes`; 16 bytes per slot, against a slot of
+/// each kind per node in `corofem_scene_bytes`). A grab or a force beyond
+/// them is then `COROFEM_STATUS_CAPACITY`.
+///
+/// # Safety
+///
+/// `out_bytes` is null or writable.
+#[no_mangle]
+pub unsafe extern "C" fn corofem_scene_bytes_sized(
+    max_nodes: usize,
+    max_tets: usize,
+    max_grabbed: usize,
+    max_loaded: usize,
+    out_bytes: *mut usize,
+) -> Status {
+    status((|| {
+        // SAFETY: the caller's contract for `out_bytes`.
+        let o = unsafe { out(out_bytes, None)? };
+        let slots = Slots {
+            grabs: max_grabbed,
+            loads: max_loaded,
+        };
+        *o = arena::scene_bytes(max_nodes, max_tets, slots)?;
         Ok(())
     })())
 }
@@ -81,7 +110,8 @@ pub unsafe extern "C" fn corofem_scene_bytes(
 /// tetrahedra in the caller's `buffer` of `buffer_bytes` bytes (at least
 /// `corofem_scene_bytes`) and writes its handle to `*out_scene`. The handle
 /// points inside the buffer; the buffer must stay in place, unused by
-/// anything else, while the scene lives. Nothing is allocated.
+/// anything else, while the scene lives. Nothing is allocated. Any node can
+/// be grabbed or loaded (`corofem_scene_init_sized` reserves fewer slots).
 ///
 /// # Safety
 ///
@@ -93,6 +123,48 @@ pub unsafe extern "C" fn corofem_scene_init(
     buffer_bytes: usize,
     max_nodes: usize,
     max_tets: usize,
+    out_scene: *mut *mut SceneHandle,
+) -> Status {
+    let slots = Slots::every_node(max_nodes);
+    // SAFETY: the caller's contract, passed on.
+    unsafe { init_with(buffer, buffer_bytes, max_nodes, max_tets, slots, out_scene) }
+}
+
+/// `corofem_scene_init` with at most `max_grabbed` grabbed and `max_loaded`
+/// loaded nodes (see `corofem_scene_bytes_sized`, which sizes the buffer).
+///
+/// # Safety
+///
+/// As `corofem_scene_init`.
+#[no_mangle]
+pub unsafe extern "C" fn corofem_scene_init_sized(
+    buffer: *mut core::ffi::c_void,
+    buffer_bytes: usize,
+    max_nodes: usize,
+    max_tets: usize,
+    max_grabbed: usize,
+    max_loaded: usize,
+    out_scene: *mut *mut SceneHandle,
+) -> Status {
+    let slots = Slots {
+        grabs: max_grabbed,
+        loads: max_loaded,
+    };
+    // SAFETY: the caller's contract, passed on.
+    unsafe { init_with(buffer, buffer_bytes, max_nodes, max_tets, slots, out_scene) }
+}
+
+/// Both scene initialisations.
+///
+/// # Safety
+///
+/// As `corofem_scene_init`.
+unsafe fn init_with(
+    buffer: *mut core::ffi::c_void,
+    buffer_bytes: usize,
+    max_nodes: usize,
+    max_tets: usize,
+    slots: Slots,
     out_scene: *mut *mut SceneHandle,
 ) -> Status {
     status((|| {
@@ -110,7 +182,7 @@ pub unsafe extern "C" fn corofem_scene_init(
             return Err(Status::Overlap.into());
         }
         // SAFETY: the caller's contract for `buffer`.
-        let h = unsafe { arena::init(buffer.cast(), buffer_bytes, max_nodes, max_tets)? };
+        let h = unsafe { arena::init(buffer.cast(), buffer_bytes, max_nodes, max_tets, slots)? };
         // SAFETY: non-null, aligned, outside the buffer, writable by contract.
         unsafe { out_scene.write(h) };
         Ok(())

@@ -3,10 +3,11 @@
 //! ```text
 //!  caller's buffer (any address, `corofem_scene_bytes` long)
 //!  ┌─────┬──────────────┬──────────────┬──────────────────┬──────────────────┬────────────────┐
-//!  │ pad │ SceneHandle  │ Node × N     │ NodeWork × N     │ ElementBlock × B │ NodeEntry × 2N │
+//!  │ pad │ SceneHandle  │ Node × N     │ NodeWork × N     │ ElementBlock × B │ NodeEntry ×    │
+//!  │     │              │              │                  │                  │ (G + L)        │
 //!  │ 0–7 │ magic, range,│ state, mass, │ CG scratch       │ rest frame,      │ grab offsets,  │
-//!  │     │ Scene<Slice… │ flags        │                  │ E/(36V₀), world  │ loads: a slot  │
-//!  │     │              │              │                  │ gradients        │ of each a node │
+//!  │     │ Scene<Slice… │ flags        │                  │ E/(36V₀), world  │ then loads     │
+//!  │     │              │              │                  │ gradients        │ (G + L slots)  │
 //!  └─────┴──────────────┴──────────────┴──────────────────┴──────────────────┴────────────────┘
 //!        ▲ the handle: aligned to 8; the arrays follow at their own alignment
 //! ```
@@ -65,8 +66,7 @@ struct Plan {
     nodes: usize,
     work: usize,
     elems: usize,
-    /// Grab slots, then load slots: `max_nodes` of each, so that any node
-    /// can be grabbed or loaded, as the C API always allowed.
+    /// Grab slots, then load slots.
     entries: usize,
     /// Element blocks for the element capacity.
     blocks: usize,
@@ -74,14 +74,36 @@ struct Plan {
     align: usize,
 }
 
-fn plan(max_nodes: usize, max_tets: usize) -> Option<Plan> {
+/// Grab and load slots of a scene: how many nodes the tool can hold and how
+/// many can carry a constant force at once (16 bytes each).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Slots {
+    /// Grab slots.
+    pub grabs: usize,
+    /// Load slots.
+    pub loads: usize,
+}
+
+impl Slots {
+    /// A slot of each kind for every node: what `corofem_scene_bytes` and
+    /// `corofem_scene_init` reserve.
+    #[must_use]
+    pub fn every_node(max_nodes: usize) -> Self {
+        Self {
+            grabs: max_nodes,
+            loads: max_nodes,
+        }
+    }
+}
+
+fn plan(max_nodes: usize, max_tets: usize, slots: Slots) -> Option<Plan> {
     let head = Layout::new::<SceneHandle>();
     let (l, nodes) = head.extend(Layout::array::<Node>(max_nodes).ok()?).ok()?;
     let (l, work) = l.extend(Layout::array::<NodeWork>(max_nodes).ok()?).ok()?;
     let blocks = element_blocks(max_tets);
     let (l, elems) = l.extend(Layout::array::<ElementBlock>(blocks).ok()?).ok()?;
     let (l, entries) = l
-        .extend(Layout::array::<NodeEntry>(max_nodes.checked_mul(2)?).ok()?)
+        .extend(Layout::array::<NodeEntry>(slots.grabs.checked_add(slots.loads)?).ok()?)
         .ok()?;
     Some(Plan {
         nodes,
@@ -94,17 +116,18 @@ fn plan(max_nodes: usize, max_tets: usize) -> Option<Plan> {
     })
 }
 
-/// Bytes a buffer at any address needs for a scene of `max_nodes` nodes and
-/// `max_tets` tetrahedra: the parts, plus `align − 1` bytes so that an
-/// unaligned buffer still fits.
-pub fn scene_bytes(max_nodes: usize, max_tets: usize) -> Result<usize, Status> {
-    if max_nodes == 0 || max_tets == 0 {
+/// Bytes a buffer at any address needs for a scene of `max_nodes` nodes,
+/// `max_tets` tetrahedra and `slots`: the parts, plus `align − 1` bytes so
+/// that an unaligned buffer still fits. More slots of a kind than nodes is
+/// an invalid argument.
+pub fn scene_bytes(max_nodes: usize, max_tets: usize, slots: Slots) -> Result<usize, Status> {
+    if max_nodes == 0 || max_tets == 0 || slots.grabs > max_nodes || slots.loads > max_nodes {
         return Err(Status::InvalidArgument);
     }
     if max_nodes > COROFEM_MAX_NODES {
         return Err(Status::Capacity);
     }
-    let p = plan(max_nodes, max_tets).ok_or(Status::Capacity)?;
+    let p = plan(max_nodes, max_tets, slots).ok_or(Status::Capacity)?;
     p.size.checked_add(p.align - 1).ok_or(Status::Capacity)
 }
 
@@ -119,12 +142,13 @@ pub unsafe fn init(
     bytes: usize,
     max_nodes: usize,
     max_tets: usize,
+    slots: Slots,
 ) -> Result<*mut SceneHandle, Status> {
     if buffer.is_null() {
         return Err(Status::NullPointer);
     }
-    let need = scene_bytes(max_nodes, max_tets)?;
-    let p = plan(max_nodes, max_tets).ok_or(Status::Capacity)?;
+    let need = scene_bytes(max_nodes, max_tets, slots)?;
+    let p = plan(max_nodes, max_tets, slots).ok_or(Status::Capacity)?;
     let start = buffer as usize;
     let end = start.checked_add(bytes).ok_or(Status::InvalidArgument)?;
     let pad = start.wrapping_neg() & (p.align - 1);
@@ -145,12 +169,13 @@ pub unsafe fn init(
         let work = base.add(p.work).cast::<NodeWork>();
         let elems = base.add(p.elems).cast::<ElementBlock>();
         let grabs = base.add(p.entries).cast::<NodeEntry>();
-        let loads = grabs.add(max_nodes);
+        let loads = grabs.add(slots.grabs);
         for i in 0..max_nodes {
             nodes.add(i).write(Node::EMPTY);
             work.add(i).write(NodeWork::EMPTY);
+        }
+        for i in 0..slots.grabs + slots.loads {
             grabs.add(i).write(NodeEntry::EMPTY);
-            loads.add(i).write(NodeEntry::EMPTY);
         }
         for i in 0..p.blocks {
             elems.add(i).write(ElementBlock::EMPTY);
@@ -163,8 +188,8 @@ pub unsafe fn init(
             core::slice::from_raw_parts_mut(work, max_nodes),
             core::slice::from_raw_parts_mut(elems, p.blocks),
         )
-        .with_grabs(core::slice::from_raw_parts_mut(grabs, max_nodes))
-        .with_loads(core::slice::from_raw_parts_mut(loads, max_nodes));
+        .with_grabs(core::slice::from_raw_parts_mut(grabs, slots.grabs))
+        .with_loads(core::slice::from_raw_parts_mut(loads, slots.loads));
         let handle = base.cast::<SceneHandle>();
         handle.write(SceneHandle {
             magic: MAGIC,
@@ -232,13 +257,28 @@ mod tests {
 
     #[test]
     fn sizes_add_up() {
-        let b = scene_bytes(4, 1).unwrap();
+        let b = scene_bytes(4, 1, Slots::every_node(4)).unwrap();
         let parts = size_of::<SceneHandle>()
             + 4 * (size_of::<Node>() + size_of::<NodeWork>() + 2 * size_of::<NodeEntry>())
             + size_of::<ElementBlock>();
         assert!(b >= parts && b < parts + 16, "{b} vs {parts}");
-        assert_eq!(scene_bytes(COROFEM_MAX_NODES + 1, 1), Err(Status::Capacity));
-        assert_eq!(scene_bytes(0, 1), Err(Status::InvalidArgument));
-        assert_eq!(scene_bytes(1, usize::MAX / 2), Err(Status::Capacity));
+        let n = COROFEM_MAX_NODES + 1;
+        assert_eq!(
+            scene_bytes(n, 1, Slots::every_node(n)),
+            Err(Status::Capacity)
+        );
+        assert_eq!(
+            scene_bytes(0, 1, Slots::every_node(0)),
+            Err(Status::InvalidArgument)
+        );
+        let one = Slots::every_node(1);
+        assert_eq!(scene_bytes(1, usize::MAX / 2, one), Err(Status::Capacity));
+        let none = Slots { grabs: 0, loads: 0 };
+        assert_eq!(
+            b - scene_bytes(4, 1, none).unwrap(),
+            8 * size_of::<NodeEntry>()
+        );
+        let more = Slots { grabs: 5, loads: 0 };
+        assert_eq!(scene_bytes(4, 1, more), Err(Status::InvalidArgument));
     }
 }

@@ -7,6 +7,7 @@
 //! ```text
 //!  corofem_scene_bytes(N, T, &bytes)          how much memory
 //!  corofem_scene_init(buf, bytes, N, T, &s)   slots written in place, handle out
+//!  (…_sized(…, G, L, …): at most G grabbed and L loaded nodes)
 //!  corofem_build(s, xyz, n, tets, t, &mat, 0, &where)
 //!  corofem_set_settings / corofem_fix_nodes / corofem_grab
 //!  loop: corofem_step_haptic(s, target, force, &stats)   1 kHz
@@ -45,7 +46,7 @@ mod status;
 mod types;
 
 pub use api::*;
-pub use arena::{scene_bytes, SceneHandle, COROFEM_MAX_NODES};
+pub use arena::{scene_bytes, SceneHandle, Slots, COROFEM_MAX_NODES};
 pub use status::Status;
 pub use types::{Material, MethodCode, Settings, Stats, COROFEM_BUILD_REORIENT};
 

@@ -118,6 +118,68 @@ fn sizing_and_init() {
     }
 }
 
+/// A scene with 1 grab slot and 1 load slot: 16 bytes per slot fewer than
+/// a slot of each kind per node, and one node more than a slot holds is
+/// `Capacity` with the scene unchanged.
+#[test]
+fn sized_slots_hold_what_they_say() {
+    let (n, t) = (8, 4);
+    let (mut every, mut sized) = (0, 0);
+    // SAFETY: locals and a heap buffer of the stated size; a live handle.
+    unsafe {
+        assert_eq!(corofem_scene_bytes(n, t, &mut every), Status::Ok);
+        assert_eq!(
+            corofem_scene_bytes_sized(n, t, 1, 1, &mut sized),
+            Status::Ok
+        );
+        assert_eq!(every - sized, (2 * n - 2) * 16);
+        assert_eq!(
+            corofem_scene_bytes_sized(n, t, n + 1, 0, &mut sized),
+            Status::InvalidArgument
+        );
+        assert_eq!(
+            corofem_scene_bytes_sized(n, t, 1, 1, &mut sized),
+            Status::Ok
+        );
+        let mut buf = vec![0u64; sized.div_ceil(8)];
+        let mut h = null_mut();
+        let st = corofem_scene_init_sized(buf.as_mut_ptr().cast(), sized, n, t, 1, 1, &mut h);
+        assert_eq!(st, Status::Ok);
+        let f = Fixture { buf, h };
+        assert_eq!(f.build(&NODES, &TETS, 0).0, Status::Ok);
+        assert_eq!(corofem_fix_nodes(f.h, [0u32, 1, 2].as_ptr(), 3), Status::Ok);
+        assert_eq!(corofem_grab(f.h, [4u32].as_ptr(), 1, 100.0), Status::Ok);
+        assert_eq!(
+            corofem_set_force(f.h, 3, [0.0f32, 0.0, -1.0].as_ptr()),
+            Status::Ok
+        );
+        assert_eq!(corofem_step(f.h, null_mut()), Status::Ok);
+        let before = f.hash();
+        assert_eq!(
+            corofem_grab(f.h, [3u32, 4].as_ptr(), 2, 100.0),
+            Status::Capacity
+        );
+        assert_eq!(
+            corofem_set_force(f.h, 4, [1.0f32; 3].as_ptr()),
+            Status::Capacity
+        );
+        assert_eq!(f.hash(), before);
+        // The grab and the force still act as before the refused calls:
+        // a second scene set up without them ends with the same bits.
+        assert_eq!(corofem_step(f.h, null_mut()), Status::Ok);
+        let g = Fixture::built();
+        assert_eq!(corofem_fix_nodes(g.h, [0u32, 1, 2].as_ptr(), 3), Status::Ok);
+        assert_eq!(corofem_grab(g.h, [4u32].as_ptr(), 1, 100.0), Status::Ok);
+        assert_eq!(
+            corofem_set_force(g.h, 3, [0.0f32, 0.0, -1.0].as_ptr()),
+            Status::Ok
+        );
+        assert_eq!(corofem_step(g.h, null_mut()), Status::Ok);
+        assert_eq!(corofem_step(g.h, null_mut()), Status::Ok);
+        assert_eq!(f.hash(), g.hash());
+    }
+}
+
 #[test]
 fn bad_handles_are_refused() {
     let f = Fixture::built();
