@@ -147,13 +147,15 @@ fn sized_slots_hold_what_they_say() {
         assert_eq!(st, Status::Ok);
         let f = Fixture { buf, h };
         assert_eq!(f.build(&NODES, &TETS, 0).0, Status::Ok);
-        assert_eq!(corofem_fix_nodes(f.h, [0u32, 1, 2].as_ptr(), 3), Status::Ok);
-        assert_eq!(corofem_grab(f.h, [4u32].as_ptr(), 1, 100.0), Status::Ok);
-        assert_eq!(
-            corofem_set_force(f.h, 3, [0.0f32, 0.0, -1.0].as_ptr()),
-            Status::Ok
-        );
-        assert_eq!(corofem_step(f.h, null_mut()), Status::Ok);
+        // Base fixed, node 4 grabbed, a force on node 3, one step.
+        let held_and_pushed = |h| {
+            assert_eq!(corofem_fix_nodes(h, [0u32, 1, 2].as_ptr(), 3), Status::Ok);
+            assert_eq!(corofem_grab(h, [4u32].as_ptr(), 1, 100.0), Status::Ok);
+            let force = [0.0f32, 0.0, -1.0];
+            assert_eq!(corofem_set_force(h, 3, force.as_ptr()), Status::Ok);
+            assert_eq!(corofem_step(h, null_mut()), Status::Ok);
+        };
+        held_and_pushed(f.h);
         let before = f.hash();
         assert_eq!(
             corofem_grab(f.h, [3u32, 4].as_ptr(), 2, 100.0),
@@ -168,13 +170,7 @@ fn sized_slots_hold_what_they_say() {
         // a second scene set up without them ends with the same bits.
         assert_eq!(corofem_step(f.h, null_mut()), Status::Ok);
         let g = Fixture::built();
-        assert_eq!(corofem_fix_nodes(g.h, [0u32, 1, 2].as_ptr(), 3), Status::Ok);
-        assert_eq!(corofem_grab(g.h, [4u32].as_ptr(), 1, 100.0), Status::Ok);
-        assert_eq!(
-            corofem_set_force(g.h, 3, [0.0f32, 0.0, -1.0].as_ptr()),
-            Status::Ok
-        );
-        assert_eq!(corofem_step(g.h, null_mut()), Status::Ok);
+        held_and_pushed(g.h);
         assert_eq!(corofem_step(g.h, null_mut()), Status::Ok);
         assert_eq!(f.hash(), g.hash());
     }
