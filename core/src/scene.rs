@@ -601,7 +601,7 @@ impl<S: Storage> Scene<S> {
             if remove {
                 used.get_mut(at..).unwrap_or_default().rotate_left(1);
                 node.flags &= !LOADED;
-                self.hdr.n_loads = n_loads - 1;
+                self.hdr.n_loads = n_loads.saturating_sub(1);
             } else if let Some(e) = used.get_mut(at) {
                 e.value = force;
             }

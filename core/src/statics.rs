@@ -151,16 +151,9 @@ impl<S: Storage> Scene<S> {
             for (n, w) in nodes.iter().zip(work.iter_mut()) {
                 #[allow(unused_mut)] // only loads and the tool add to it
                 let mut load = scale(s.gravity, n.mass);
-                // (Zero added to a node without a load: the bits of the
-                // time the force was a field of every node.)
                 #[cfg(feature = "loads")]
                 {
-                    let f_ext = if n.flags & LOADED != 0 {
-                        forces.next()
-                    } else {
-                        [0.0; 3]
-                    };
-                    load = add(f_ext, load);
+                    load = add(forces.at(n.flags, LOADED), load);
                 }
                 #[allow(unused_mut)] // only the tool adds to it
                 let mut diag = w.inv_p;

@@ -114,17 +114,8 @@ fn step_inline<const AVX2: bool>(v: View<'_>) -> Result<StepStats, StepError> {
     let mut forces = Entries::new(loads);
     for (n, w) in nodes.iter_mut().zip(work.iter_mut()) {
         let m = n.mass;
-        // (Zero added to a node without a load, as before loads had a list
-        // of their own: the same bits.)
         #[cfg(feature = "loads")]
-        let f_el = add(
-            w.r,
-            if n.flags & LOADED != 0 {
-                forces.next()
-            } else {
-                [0.0; 3]
-            },
-        );
+        let f_el = add(w.r, forces.at(n.flags, LOADED));
         #[cfg(not(feature = "loads"))]
         let f_el = w.r;
         let mut f = add(f_el, scale(s.gravity, m));

@@ -24,6 +24,10 @@ pub(crate) const LOADED: u8 = 16;
 pub(crate) const RELEASED: u8 = 4;
 /// Node flag: the ground holds this node during the current step.
 pub(crate) const CONTACT: u8 = 8;
+/// Node flag set only inside `Scene::grab`, to count the distinct nodes asked
+/// for before anything changes.
+#[cfg(feature = "tool")]
+pub(crate) const LISTED: u8 = 32;
 
 /// Per-node state (41 bytes of data, 44 with padding). What only some nodes
 /// carry (a grab offset, a constant load) lives in [`NodeEntry`] lists
@@ -148,6 +152,19 @@ impl<'a> Entries<'a> {
     #[inline(always)]
     pub(crate) fn next(&mut self) -> Vec3 {
         self.0.next().map_or([0.0; 3], |e| e.value)
+    }
+
+    /// At a node with `flags`: its value if it has `flag`, else zero (which
+    /// callers still add, so that a node without a load gets the bits it got
+    /// when every node stored a force).
+    #[cfg(feature = "loads")]
+    #[inline(always)]
+    pub(crate) fn at(&mut self, flags: u8, flag: u8) -> Vec3 {
+        if flags & flag != 0 {
+            self.next()
+        } else {
+            [0.0; 3]
+        }
     }
 }
 

@@ -3,9 +3,10 @@
 //!
 //! When nodes are grabbed, each gets its offset `oᵢ` from the grabbed nodes'
 //! centroid, kept in the storage's grab slots (one 16-byte `NodeEntry` per
-//! grabbed node, in node order; nodes not grabbed carry nothing). Node `i` is then pulled towards `target + oᵢ` by a spring
-//! of stiffness `k / n` (n grabbed nodes), so the total force on the body is
-//! `k (target − centroid)` and the grabbed patch follows the target rigidly.
+//! grabbed node, in node order; nodes not grabbed carry nothing). Node `i` is
+//! then pulled towards `target + oᵢ` by a spring of stiffness `k / n` (n
+//! grabbed nodes), so the total force on the body is `k (target − centroid)`
+//! and the grabbed patch follows the target rigidly.
 //!
 //! The spring is treated implicitly: it enters the step's matrix as `h² k/n`
 //! on the grabbed nodes and the right-hand side as `h (f − h k/n v)`, so a stiff
@@ -56,9 +57,7 @@ impl<S: crate::Storage> crate::Scene<S> {
     /// distinct nodes than slots is [`Error::TooManyGrabbed`](crate::Error::TooManyGrabbed),
     /// and on every error nothing changes.
     pub fn grab(&mut self, nodes: &[u32], stiffness: f32) -> Result<(), crate::Error> {
-        use crate::storage::GRABBED;
-        /// Flag bit set only inside this function, to count distinct nodes.
-        const LISTED: u8 = 128;
+        use crate::storage::{GRABBED, LISTED};
         let n_nodes = self.hdr.n_nodes;
         if let Some(&i) = nodes.iter().find(|&&i| i as usize >= n_nodes) {
             return Err(crate::Error::NodeOutOfRange { node: i as usize });
@@ -73,12 +72,13 @@ impl<S: crate::Storage> crate::Scene<S> {
         }
         let p = self.store.parts_mut();
         let all = p.nodes.get_mut(..n_nodes).unwrap_or_default();
+        let mut count = 0;
         for &i in nodes {
             if let Some(n) = all.get_mut(i as usize) {
+                count += usize::from(n.flags & LISTED == 0);
                 n.flags |= LISTED;
             }
         }
-        let count = all.iter().filter(|n| n.flags & LISTED != 0).count();
         if count > p.grabs.len() {
             for n in all.iter_mut() {
                 n.flags &= !LISTED;

@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use corofem::{BoxMesh, BuildOptions, Material};
+use corofem::{BoxMesh, BuildOptions, Material, Scene, Storage};
 
 pub use corofem_io::{HeapScene, HeapStorage};
 
@@ -79,6 +79,20 @@ pub fn box_mesh(size: [f32; 3], cells: [u32; 3], tets_per_cell: u8) -> CoreMesh 
     let mut tets = vec![[0; 4]; b.tet_count()];
     b.generate(&mut nodes, &mut tets).expect("valid box");
     CoreMesh { nodes, tets }
+}
+
+/// Builds a generated box (6 tetrahedra per cell, the default material and
+/// options) into `scene`.
+pub fn build_box<S: Storage>(scene: &mut Scene<S>, size: [f32; 3], cells: [u32; 3]) {
+    let mesh = box_mesh(size, cells, 6);
+    scene
+        .build(
+            &mesh.nodes,
+            &mesh.tets,
+            &Material::default(),
+            BuildOptions::default(),
+        )
+        .expect("valid box");
 }
 
 /// f64 helpers for checks.

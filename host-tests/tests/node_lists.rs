@@ -4,8 +4,8 @@
 //! change nothing; the order in which forces are set, replaced and removed
 //! does not change the results.
 
-use corofem::{BuildOptions, Error, Material, Scene, StaticScene, StepStats, Storage};
-use corofem_host_tests::box_mesh;
+use corofem::{Error, Scene, StaticScene, StepStats, Storage};
+use corofem_host_tests::build_box;
 
 /// 2 grab slots and 2 load slots.
 type Tight = StaticScene<64, { corofem::element_blocks(128) }, 2, 2>;
@@ -26,14 +26,7 @@ fn scene() -> Tight {
 
 /// (Re)builds the block into `s`.
 fn build<S: Storage>(s: &mut Scene<S>) {
-    let mesh = box_mesh([2.0, 1.0, 1.0], [2, 1, 1], 6);
-    s.build(
-        &mesh.nodes,
-        &mesh.tets,
-        &Material::default(),
-        BuildOptions::default(),
-    )
-    .unwrap();
+    build_box(s, [2.0, 1.0, 1.0], [2, 1, 1]);
 }
 
 /// Steps `s` 20 times (1 ms, the default settings) and returns the last

@@ -648,15 +648,8 @@ fn all_finite<S: Storage>(s: &corofem::Scene<S>) -> bool {
 /// A built, stepped box in the build property's scene: what a failed build
 /// must leave alone.
 fn previous_scene() -> BuildScene {
-    let mesh = corofem_host_tests::box_mesh([1.0, 0.5, 0.5], [1, 1, 1], 6);
     let mut s = BuildScene::new();
-    s.build(
-        &mesh.nodes,
-        &mesh.tets,
-        &Material::default(),
-        BuildOptions::default(),
-    )
-    .unwrap();
+    corofem_host_tests::build_box(&mut s, [1.0, 0.5, 0.5], [1, 1, 1]);
     s.fix_nodes(&[0, 2]).unwrap();
     s.set_force(7, [1.0, -2.0, 3.0]).unwrap();
     s.grab(&[5], 100.0).unwrap();
