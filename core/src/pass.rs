@@ -22,9 +22,10 @@ pub(crate) struct PassTotals {
 /// Where a force pass puts each element's contributions, element after
 /// element in element order.
 pub(crate) trait Sink {
-    /// Adds node `i`'s elastic force `f` and stiffness product `kv` (`−K v`),
-    /// both in N.
-    fn add(&mut self, i: usize, f: Vec3, kv: Vec3);
+    /// Adds node `i`'s elastic force `f` (N).
+    fn add_force(&mut self, i: usize, f: Vec3);
+    /// Adds node `i`'s stiffness product `kv` (`−K v`, N).
+    fn add_kv(&mut self, i: usize, kv: Vec3);
     /// The node work, if this sink is [`IntoWork`] (which the AVX2 pass then
     /// writes directly, with the same sums).
     fn work(&mut self) -> Option<&mut [NodeWork]>;
@@ -35,9 +36,14 @@ pub(crate) struct IntoWork<'a>(pub(crate) &'a mut [NodeWork]);
 
 impl Sink for IntoWork<'_> {
     #[inline(always)]
-    fn add(&mut self, i: usize, f: Vec3, kv: Vec3) {
+    fn add_force(&mut self, i: usize, f: Vec3) {
         if let Some(w) = self.0.get_mut(i) {
             w.r = add(w.r, f);
+        }
+    }
+    #[inline(always)]
+    fn add_kv(&mut self, i: usize, kv: Vec3) {
+        if let Some(w) = self.0.get_mut(i) {
             w.q = add(w.q, kv);
         }
     }
@@ -47,15 +53,19 @@ impl Sink for IntoWork<'_> {
     }
 }
 
-/// Any other sink: a function `add(i, f, kv)`.
+/// Any other sink: functions `add_force(i, f)` and `add_kv(i, kv)`.
 #[cfg(any(feature = "statics", feature = "diagnostics", test))]
-pub(crate) struct Each<F>(pub(crate) F);
+pub(crate) struct Each<F, K>(pub(crate) F, pub(crate) K);
 
 #[cfg(any(feature = "statics", feature = "diagnostics", test))]
-impl<F: FnMut(usize, Vec3, Vec3)> Sink for Each<F> {
+impl<F: FnMut(usize, Vec3), K: FnMut(usize, Vec3)> Sink for Each<F, K> {
     #[inline(always)]
-    fn add(&mut self, i: usize, f: Vec3, kv: Vec3) {
-        (self.0)(i, f, kv);
+    fn add_force(&mut self, i: usize, f: Vec3) {
+        (self.0)(i, f);
+    }
+    #[inline(always)]
+    fn add_kv(&mut self, i: usize, kv: Vec3) {
+        (self.1)(i, kv);
     }
     #[inline(always)]
     fn work(&mut self) -> Option<&mut [NodeWork]> {
@@ -183,7 +193,7 @@ pub(crate) fn forces_outside_step(
     count: usize,
     add_to: &mut dyn FnMut(usize, Vec3),
 ) -> PassTotals {
-    let sink = Each(|i, f, _| add_to(i, f));
+    let sink = Each(|i, f| add_to(i, f), |_, _| {});
     if commit {
         forces::<false, true, false>(method, per_young, nodes, elems, count, sink)
     } else {
@@ -393,13 +403,16 @@ impl<S: Sink, const AVX2: bool> ForcePass<'_, S, AVX2> {
     ) {
         let mut el = blk.get(j);
         let out = element::forces(self.method, &mut el, self.per_young, rest, du);
-        let kv = if WITH_KV {
-            hform::stiffness_product(vel, &out.grad, el.lame(self.per_young))
-        } else {
-            [[0.0; 3]; 3]
-        };
         el.grad = out.grad;
-        self.emit(&out, el.nodes, &kv);
+        // The forces first, then `−K v`: the two go to different sums, so
+        // the order between them changes no bits, and the forces' registers
+        // are free again for the product (on a Cortex-M4F, the fused version
+        // spilled).
+        self.emit_forces(&out, el.nodes);
+        if WITH_KV {
+            let kv = hform::stiffness_product(vel, &out.grad, el.lame(self.per_young));
+            self.emit_kv(el.nodes, &kv);
+        }
         if COMMIT {
             blk.set_state(j, &el);
         }
@@ -497,7 +510,11 @@ impl<S: Sink, const AVX2: bool> ForcePass<'_, S, AVX2> {
                     Batch::put(&mut blk.rot, j, Batch::lane(&out.rot, j));
                 }
             }
-            self.emit(&f, blk.nodes(j), &lane3(&kv, j));
+            let ids = blk.nodes(j);
+            self.emit_forces(&f, ids);
+            if WITH_KV {
+                self.emit_kv(ids, &lane3(&kv, j));
+            }
         }
     }
 
@@ -565,18 +582,22 @@ impl<S: Sink, const AVX2: bool> ForcePass<'_, S, AVX2> {
     }
 
     /// Counts an element's energy and inversion, and hands `[f_b, f_c, f_d]`
-    /// and `f_a = −(f_b + f_c + f_d)` (and the same of `kv`) to the four
-    /// nodes `ids`, in the order a, b, c, d.
+    /// and `f_a = −(f_b + f_c + f_d)` to the four nodes `ids`, in the order
+    /// a, b, c, d.
     #[inline(always)]
-    fn emit(&mut self, out: &ElementForces, ids: [u16; 4], kv: &[Vec3; 3]) {
+    fn emit_forces(&mut self, out: &ElementForces, ids: [u16; 4]) {
         self.totals.inverted += u32::from(out.inverted);
         self.totals.energy += out.energy;
-        let f = &out.f;
-        self.sink
-            .add(usize::from(ids[0]), share_of_a(f), share_of_a(kv));
-        self.sink.add(usize::from(ids[1]), f[0], kv[0]);
-        self.sink.add(usize::from(ids[2]), f[1], kv[1]);
-        self.sink.add(usize::from(ids[3]), f[2], kv[2]);
+        let sink = &mut self.sink;
+        scatter(ids, &out.f, |i, v| sink.add_force(i, v));
+    }
+
+    /// Hands an element's `−K v` to its four nodes `ids` as
+    /// [`Self::emit_forces`] does its forces.
+    #[inline(always)]
+    fn emit_kv(&mut self, ids: [u16; 4], kv: &[Vec3; 3]) {
+        let sink = &mut self.sink;
+        scatter(ids, kv, |i, v| sink.add_kv(i, v));
     }
 }
 
@@ -615,6 +636,10 @@ pub(crate) fn stiffness<const AVX2: bool>(
     count: usize,
     work: &mut [NodeWork],
 ) {
+    if LANES == 1 {
+        product_one_by_one(per_young, elems.get(..count).unwrap_or(&[]), work);
+        return;
+    }
     let (whole, tail) = split(count);
     for blk in elems.iter().take(whole) {
         product_block::<AVX2>(per_young, blk, LANES, work);
@@ -623,6 +648,30 @@ pub(crate) fn stiffness<const AVX2: bool>(
         if let Some(blk) = elems.get(whole) {
             product_block::<AVX2>(per_young, blk, tail, work);
         }
+    }
+}
+
+/// [`stiffness`] with one element per block (a Cortex-M4F): plain scalar
+/// code over a slice of exactly the used blocks. The four node indices are
+/// checked once, together; the indexing after the check compiles to no
+/// check at all (the firmware's link-time proof fails if one remains). The
+/// lane bookkeeping of [`product_block`] measured 19 instructions more per
+/// element there, and a per-index `get` 5 more.
+#[inline(always)]
+fn product_one_by_one(per_young: [f32; 2], blocks: &[ElementBlock], work: &mut [NodeWork]) {
+    for blk in blocks {
+        let el = blk.get(0);
+        let [a, b, c, d] = el.nodes.map(usize::from);
+        let n = work.len();
+        if a >= n || b >= n || c >= n || d >= n {
+            continue;
+        }
+        let x = [work[a].d, work[b].d, work[c].d, work[d].d];
+        let kd = hform::stiffness_product(&x, &el.grad, el.lame(per_young));
+        work[a].q = add(work[a].q, share_of_a(&kd));
+        work[b].q = add(work[b].q, kd[0]);
+        work[c].q = add(work[c].q, kd[1]);
+        work[d].q = add(work[d].q, kd[2]);
     }
 }
 
@@ -790,10 +839,8 @@ mod tests {
             let mut kv = [[0.0f32; 3]; 12];
             let mut els = elems;
             let totals = if batched {
-                let add_to = |i: usize, a: Vec3, b: Vec3| {
-                    f[i] = add(f[i], a);
-                    kv[i] = add(kv[i], b);
-                };
+                let add_f = |i: usize, a: Vec3| f[i] = add(f[i], a);
+                let add_kv = |i: usize, b: Vec3| kv[i] = add(kv[i], b);
                 // Three blocks of eight (on x86/AArch64): two whole, one with
                 // four lanes used.
                 let mut blocks = [ElementBlock::EMPTY; crate::element_blocks(20)];
@@ -802,10 +849,10 @@ mod tests {
                 }
                 // Two passes: the second starts from the rotations the first
                 // kept, where most polar lanes take the regular path.
-                let mut add_to = add_to;
-                let sink = Each(&mut add_to);
+                let (mut add_f, mut add_kv) = (add_f, add_kv);
+                let sink = Each(&mut add_f, &mut add_kv);
                 forces::<true, true, false>(method, PER_YOUNG, &nodes, &mut blocks, 20, sink);
-                let sink = Each(add_to);
+                let sink = Each(add_f, add_kv);
                 let totals =
                     forces::<true, true, false>(method, PER_YOUNG, &nodes, &mut blocks, 20, sink);
                 for (e, el) in els.iter_mut().enumerate() {
