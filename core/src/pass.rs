@@ -28,6 +28,7 @@ pub(crate) trait Sink {
     fn add_kv(&mut self, i: usize, kv: Vec3);
     /// The node work, if this sink is [`IntoWork`] (which the AVX2 pass then
     /// writes directly, with the same sums).
+    #[cfg(target_arch = "x86_64")]
     fn work(&mut self) -> Option<&mut [NodeWork]>;
 }
 
@@ -47,6 +48,7 @@ impl Sink for IntoWork<'_> {
             w.q = add(w.q, kv);
         }
     }
+    #[cfg(target_arch = "x86_64")]
     #[inline(always)]
     fn work(&mut self) -> Option<&mut [NodeWork]> {
         Some(self.0)
@@ -67,6 +69,7 @@ impl<F: FnMut(usize, Vec3), K: FnMut(usize, Vec3)> Sink for Each<F, K> {
     fn add_kv(&mut self, i: usize, kv: Vec3) {
         (self.1)(i, kv);
     }
+    #[cfg(target_arch = "x86_64")]
     #[inline(always)]
     fn work(&mut self) -> Option<&mut [NodeWork]> {
         None

@@ -18,7 +18,7 @@
 //! last node pass checks the result is finite and applies it.
 
 use crate::cg;
-use crate::math::{add, axpy, cross, dot, is_finite3, scale, solve3, sub, Vec3};
+use crate::math::{add, axpy, cross, dot, finite_probe, is_finite3, scale, solve3, sub, Vec3};
 use crate::pass;
 use crate::scene::View;
 use crate::settings::StepStats;
@@ -158,22 +158,26 @@ fn step_inline<const AVX2: bool>(v: View<'_>) -> Result<StepStats, StepError> {
         remove_momentum(nodes, work);
     }
     // Add the free fall to the guess and prescribe the held normals.
-    let mut guess = false;
+    let keep = s.warm_start && !isolated;
+    // The bits of every guess component, sign bit shifted out, or-ed: zero
+    // exactly when every component is ±0 (NaN counts as non-zero, as with
+    // `!=`). Integer ors: on a Cortex-M4F, 15 instructions per node fewer
+    // than three float comparisons.
+    let mut nonzero = 0u32;
     for (n, w) in nodes.iter().zip(work.iter_mut()) {
         if n.flags & FIXED != 0 {
             continue;
         }
-        w.x = if s.warm_start && !isolated {
-            w.x
-        } else {
-            add(w.x, fall)
-        };
+        if !keep {
+            w.x = add(w.x, fall);
+        }
         #[cfg(feature = "ground")]
         if let (Some(g), true) = (ground, n.flags & CONTACT != 0) {
             w.x = g.with_normal(w.x, g.held_dv(g.distance(n.position()), n.v, h));
         }
-        guess |= w.x != [0.0; 3];
+        nonzero |= (w.x[0].to_bits() | w.x[1].to_bits() | w.x[2].to_bits()) << 1;
     }
+    let guess = nonzero != 0;
     // A uniform guess needs no element pass for `r = b − A x₀`.
     let uniform = isolated && !s.warm_start;
 
@@ -234,7 +238,9 @@ fn step_inline<const AVX2: bool>(v: View<'_>) -> Result<StepStats, StepError> {
     }
     #[allow(unused_mut)] // only the tool adds to it
     let mut tool_force = [0.0f32; 3];
-    let mut ok = true;
+    // `probe` stays zero exactly while every value checked is finite
+    // (`math::finite_probe`).
+    let mut probe = 0.0f32;
     #[cfg(feature = "tool")]
     let mut offsets = Entries::new(grabs);
     for (n, w) in nodes.iter().zip(work.iter_mut()) {
@@ -259,11 +265,11 @@ fn step_inline<const AVX2: bool>(v: View<'_>) -> Result<StepStats, StepError> {
         // again rather than bound before the tool branch: the compiler shares
         // the sum either way, and the binding measured 6 instructions per
         // tet-step more on the Cortex-M4F.)
-        ok &= is_finite3(add(n.x0, u)) && is_finite3(v);
+        probe = finite_probe(finite_probe(probe, add(n.x0, u)), v);
         w.d = u;
         w.q = v;
     }
-    if !ok || !is_finite3(tool_force) {
+    if probe != 0.0 || !is_finite3(tool_force) {
         return Err(StepError::Diverged);
     }
     for (n, w) in nodes.iter_mut().zip(work.iter()) {
