@@ -76,12 +76,14 @@ impl<F: FnMut(usize, Vec3), K: FnMut(usize, Vec3)> Sink for Each<F, K> {
     }
 }
 
-/// The four nodes of an element, or `None` if an index is out of range —
-/// impossible after `build` validated them, but the compiler cannot know, and
-/// skipping the element is both panic-free and cheaper than a fallback value.
+/// References to the four nodes of an element, or `None` if an index is out
+/// of range — impossible after `build` validated them, but the compiler
+/// cannot know, and skipping the element is both panic-free and cheaper than
+/// a fallback value. Nothing is read until it is used (copies of the nodes
+/// made here were loaded up front and spilled on a Cortex-M4F).
 #[inline(always)]
-fn gather<T: Copy>(slots: &[T], ids: [u16; 4]) -> Option<[T; 4]> {
-    let get = |i: u16| slots.get(usize::from(i)).copied();
+fn gather<T>(slots: &[T], ids: [u16; 4]) -> Option<[&T; 4]> {
+    let get = |i: u16| slots.get(usize::from(i));
     Some([get(ids[0])?, get(ids[1])?, get(ids[2])?, get(ids[3])?])
 }
 
@@ -196,7 +198,7 @@ pub(crate) fn forces_outside_step(
     count: usize,
     add_to: &mut dyn FnMut(usize, Vec3),
 ) -> PassTotals {
-    let sink = Each(|i, f| add_to(i, f), |_, _| {});
+    let sink = Each(add_to, |_, _| {});
     if commit {
         forces::<false, true, false>(method, per_young, nodes, elems, count, sink)
     } else {
@@ -382,19 +384,22 @@ impl<S: Sink, const AVX2: bool> ForcePass<'_, S, AVX2> {
         blk: &mut ElementBlock,
         lanes: usize,
     ) {
+        let nodes = self.nodes;
         for j in 0..lanes {
-            let Some(n) = gather(self.nodes, blk.nodes(j)) else {
+            let Some(n) = gather(nodes, blk.nodes(j)) else {
                 continue;
             };
             let rest = diffs(&[n[0].x0, n[1].x0, n[2].x0, n[3].x0]);
             let du = diffs(&[n[0].u, n[1].u, n[2].u, n[3].u]);
-            let vel = [n[0].v, n[1].v, n[2].v, n[3].v];
-            self.one::<WITH_KV, COMMIT>(blk, j, &rest, &du, &vel);
+            let vel = || [n[0].v, n[1].v, n[2].v, n[3].v];
+            self.one::<WITH_KV, COMMIT>(blk, j, &rest, &du, vel);
         }
     }
 
     /// Element `j` of a block alone, from its rest edges, displacement
-    /// differences and node velocities.
+    /// differences and node velocities (`vel`, called only with `WITH_KV`,
+    /// once the forces are out: loaded where they are used, they are not
+    /// kept in registers through the force kernel).
     #[inline(always)]
     fn one<const WITH_KV: bool, const COMMIT: bool>(
         &mut self,
@@ -402,7 +407,7 @@ impl<S: Sink, const AVX2: bool> ForcePass<'_, S, AVX2> {
         j: usize,
         rest: &[Vec3; 3],
         du: &[Vec3; 3],
-        vel: &[Vec3; 4],
+        vel: impl FnOnce() -> [Vec3; 4],
     ) {
         let mut el = blk.get(j);
         let out = element::forces(self.method, &mut el, self.per_young, rest, du);
@@ -413,7 +418,7 @@ impl<S: Sink, const AVX2: bool> ForcePass<'_, S, AVX2> {
         // spilled).
         self.emit_forces(&out, el.nodes);
         if WITH_KV {
-            let kv = hform::stiffness_product(vel, &out.grad, el.lame(self.per_young));
+            let kv = hform::stiffness_product(&vel(), &out.grad, el.lame(self.per_young));
             self.emit_kv(el.nodes, &kv);
         }
         if COMMIT {
@@ -496,7 +501,7 @@ impl<S: Sink, const AVX2: bool> ForcePass<'_, S, AVX2> {
                     [l(0), l(1), l(2), l(3)]
                 };
                 let (rest, du) = (diffs(&corners(&x0)), diffs(&corners(&u)));
-                self.one::<WITH_KV, COMMIT>(blk, j, &rest, &du, &corners(&vel));
+                self.one::<WITH_KV, COMMIT>(blk, j, &rest, &du, || corners(&vel));
                 continue;
             }
             let lane = |v: Batch| v.0.get(j).copied().unwrap_or(0.0);
