@@ -664,7 +664,7 @@ pub(crate) fn stiffness<const AVX2: bool>(
 /// checked once, together; the indexing after the check compiles to no
 /// check at all (the firmware's link-time proof fails if one remains). The
 /// lane bookkeeping of [`product_block`] measured 19 instructions more per
-/// element there, and a per-index `get` 5 more.
+/// element there, and a per-index `get` 3 more.
 #[inline(always)]
 fn product_one_by_one(per_young: [f32; 2], blocks: &[ElementBlock], work: &mut [NodeWork]) {
     for blk in blocks {
