@@ -297,6 +297,26 @@ mod tests {
     }
 
     #[test]
+    fn finite_probe_stays_zero_exactly_until_a_value_is_not_finite() {
+        let finite = [
+            [0.0, -0.0, 1.0],
+            [f32::MAX, -f32::MAX, f32::MIN_POSITIVE],
+            [1e-45, -3.5, 7.0],
+        ];
+        let acc = finite.iter().fold(0.0, |acc, v| finite_probe(acc, *v));
+        assert_eq!(acc, 0.0);
+        for bad in [f32::INFINITY, f32::NEG_INFINITY, f32::NAN] {
+            for k in 0..3 {
+                let mut v = [1.0; 3];
+                v[k] = bad;
+                // Once non-finite, later finite vectors do not clear it.
+                let acc = finite_probe(finite_probe(0.0, v), [2.0; 3]);
+                assert!(acc != 0.0 && acc.is_nan(), "{bad} at {k}");
+            }
+        }
+    }
+
+    #[test]
     fn solve3_solves_and_detects_singular() {
         let m = [[2.0, 0.0, 0.0], [0.0, 4.0, 1.0], [0.0, 1.0, 3.0]];
         let x = solve3(&m, [2.0, 5.0, 4.0]).unwrap();

@@ -715,27 +715,6 @@ fn product_block<const AVX2: bool>(
             return;
         }
     }
-    if LANES == 1 {
-        // One element per block (a Cortex-M4F): plain scalar code; the lane
-        // bookkeeping below measured 19 instructions more per element there.
-        for j in 0..lanes {
-            let el = blk.get(j);
-            let get = |i: u16| work.get(usize::from(i)).map(|w| w.d);
-            let ids = el.nodes;
-            let (Some(a), Some(b), Some(c), Some(d)) =
-                (get(ids[0]), get(ids[1]), get(ids[2]), get(ids[3]))
-            else {
-                continue;
-            };
-            let kd = hform::stiffness_product(&[a, b, c, d], &el.grad, el.lame(per_young));
-            scatter(ids, &kd, |i, v| {
-                if let Some(w) = work.get_mut(i) {
-                    w.q = add(w.q, v);
-                }
-            });
-        }
-        return;
-    }
     // `d` in lanes.
     let mut x = [[Batch::splat(0.0); 3]; 4];
     let present = gather_corners(
