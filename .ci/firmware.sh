@@ -7,7 +7,9 @@
 #  3. the firmware is built for thumbv7em-none-eabihf at every size and run
 #     in QEMU (mps2-an386, Cortex-M4F); it must exit 0 (plausible results)
 #     and print the host's hash. The reference size is also built with
-#     libm's software square root instead of vsqrt: same hash;
+#     the Rust stiffness product instead of the assembly one (fpu-product),
+#     with libm's software square root instead of vsqrt as well, and tuned
+#     for the Cortex-M4 with the assembly's VMUL+VADD form: same hash;
 #  4. panic-freedom: every release build above links only because no
 #     panicking branch is left (the panic handler calls an undefined
 #     symbol); the negative control adds one bounds check and must fail to
@@ -147,11 +149,13 @@ step "firmware in QEMU (thumbv7em-none-eabihf, vsqrt), every size"
 for cells in "${SIZES[@]}"; do
   run_firmware "$cells" vsqrt
 done
-step "firmware with libm's software sqrt ($REFERENCE)"
+step "firmware with the Rust stiffness product instead of the assembly one ($REFERENCE)"
+run_firmware "$REFERENCE" rust-prod --no-default-features --features fpu-sqrt
+step "firmware with libm's software sqrt and the Rust product ($REFERENCE)"
 run_firmware "$REFERENCE" libm --no-default-features
-step "firmware tuned for the Cortex-M4 (-C target-cpu=cortex-m4: VMUL+VADD instead of VMLA) ($REFERENCE)"
+step "firmware tuned for the Cortex-M4 (-C target-cpu=cortex-m4 and fpu-product-vmul: VMUL+VADD instead of VMLA) ($REFERENCE)"
 FW_RUSTFLAGS="-C target-cpu=cortex-m4" FW_TARGET_DIR="$CARGO_TARGET_DIR/firmware-cortex-m4" \
-  run_firmware "$REFERENCE" cortex-m4
+  run_firmware "$REFERENCE" cortex-m4 --features fpu-product-vmul
 
 step "panic-freedom: negative control"
 if (cd "$FW" && cargo build --release --features panic-negative-control) >"$OUT/negative.txt" 2>&1; then
@@ -198,8 +202,10 @@ step "cost per scene size (Qr, 5 CG iterations, 500 steps)"
       "$((ram + $(field stack_peak)))"
   done | sort -k3,3n -k4,4r
 } | tee "$OUT/summary.txt"
-echo "(build: vsqrt = default (fpu-sqrt), libm = software sqrt, cortex-m4 = vsqrt and"
-echo " -C target-cpu=cortex-m4; stack: bytes of one step; flash, ram: bytes of the image;"
+echo "(build: vsqrt = default (fpu-sqrt, fpu-product: the assembly product with VMLA),"
+echo " rust-prod = vsqrt and the Rust product, libm = software sqrt and the Rust product,"
+echo " cortex-m4 = -C target-cpu=cortex-m4 and fpu-product-vmul (VMUL+VADD);"
+echo " stack: bytes of one step; flash, ram: bytes of the image;"
 echo " ram+stk: with the peak stack, which is the mesh generation's scratch)"
 
 finish

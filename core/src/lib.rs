@@ -69,10 +69,13 @@
 //! | `full` | all of the above |
 //! | `libm` (default) / `micromath` | math backend (exactly one) |
 //! | `fpu-sqrt` | square root with the FPU's `vsqrt.f32` on bare-metal Arm hard-float targets (Cortex-M4F/M7), bit-identical to `libm` |
+//! | `fpu-product` | the CG's stiffness product in FPU assembly (`vldm`/`vstm`) on the same targets, bit-identical to the Rust product |
+//! | `fpu-product-vmul` | `fpu-product` with `vmul` + `vadd` instead of `vmla`: more instructions, fewer cycles on a Cortex-M4 |
 //! | `defmt` | `defmt::Format` on public types |
 #![no_std]
 // No unsafe code, except the square root instruction (math.rs: SSE's
 // `sqrtss` intrinsic on x86, the FPU's `vsqrt.f32` behind `fpu-sqrt`), the
+// stiffness product in FPU assembly behind `fpu-product` (fpu_product.rs), the
 // AVX2 moves between node storage and lanes (avx2.rs, x86_64 only, 16-byte
 // loads and stores inside checked slots) and the calls into them, each
 // allowed where it is and nowhere else.
@@ -82,6 +85,9 @@
 // `!(x > 0.0)` is the NaN-safe way to reject a value: it is true for NaN,
 // which `x <= 0.0` is not. We use it on purpose throughout.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
+// `x % LANES` is `0` where a block holds one element (`LANES == 1`, e.g. a
+// Cortex-M4F): the same code serves both, on purpose.
+#![allow(clippy::modulo_one)]
 
 #[cfg(target_arch = "x86_64")]
 mod avx2;
@@ -100,6 +106,13 @@ mod storage;
 
 #[cfg(feature = "diagnostics")]
 mod diagnostics;
+#[cfg(all(
+    feature = "fpu-product",
+    target_arch = "arm",
+    target_os = "none",
+    target_abi = "eabihf"
+))]
+mod fpu_product;
 #[cfg(feature = "ground")]
 mod ground;
 #[cfg(feature = "statics")]

@@ -645,7 +645,22 @@ pub(crate) fn stiffness<const AVX2: bool>(
     work: &mut [NodeWork],
 ) {
     if LANES == 1 {
-        product_one_by_one(per_young, elems.get(..count).unwrap_or(&[]), work);
+        let blocks = elems.get(..count).unwrap_or(&[]);
+        // The same product in assembly with `vldm`/`vstm` (same bits).
+        #[cfg(all(
+            feature = "fpu-product",
+            target_arch = "arm",
+            target_os = "none",
+            target_abi = "eabihf"
+        ))]
+        crate::fpu_product::product(per_young, blocks, work);
+        #[cfg(not(all(
+            feature = "fpu-product",
+            target_arch = "arm",
+            target_os = "none",
+            target_abi = "eabihf"
+        )))]
+        product_one_by_one(per_young, blocks, work);
         return;
     }
     let (whole, tail) = split(count);
@@ -665,6 +680,19 @@ pub(crate) fn stiffness<const AVX2: bool>(
 /// check at all (the firmware's link-time proof fails if one remains). The
 /// lane bookkeeping of [`product_block`] measured 19 instructions more per
 /// element there, and a per-index `get` 3 more.
+///
+/// With feature `fpu-product` on bare-metal Arm hard-float targets,
+/// `crate::fpu_product` replaces it (the same operations in assembly); the
+/// firmware's builds without that feature run this one, with the same hash.
+#[cfg_attr(
+    all(
+        feature = "fpu-product",
+        target_arch = "arm",
+        target_os = "none",
+        target_abi = "eabihf"
+    ),
+    allow(dead_code)
+)]
 #[inline(always)]
 fn product_one_by_one(per_young: [f32; 2], blocks: &[ElementBlock], work: &mut [NodeWork]) {
     for blk in blocks {

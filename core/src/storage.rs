@@ -74,7 +74,10 @@ impl Default for Node {
 
 /// Per-node scratch of the linear solver (52 bytes). Only `x` (the last
 /// velocity change, the warm start) carries from one step to the next.
+// `repr(C)`: `q` right after `d`, as the assembly product (`fpu_product`)
+// reads them.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C)]
 pub struct NodeWork {
     /// Solution `Δv` (m/s).
     pub(crate) x: Vec3,

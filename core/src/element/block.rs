@@ -21,7 +21,11 @@ pub(crate) type Batch = Lanes<LANES>;
 /// Storage of up to [`ELEMENTS_PER_BLOCK`](crate::ELEMENTS_PER_BLOCK) elements (72 bytes per element with `Qr`
 /// only; +36 with `polar` or `linear` for the rest world gradients; +16 with
 /// `polar` for the rotation). Lanes past the scene's element count are unused.
+// `repr(C)`: fields in this order, so that the Cortex-M4F's assembly product
+// (`fpu_product`) finds the gradients right after the stiffness with every
+// feature set (no padding: every field is 4-aligned and a multiple of 4).
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C)]
 pub struct ElementBlock {
     /// Node indices `a, b, c, d` of each lane.
     pub(crate) nodes: [[u16; LANES]; 4],

@@ -241,6 +241,14 @@ fn report(
         } else {
             "libm"
         })
+        .str(" product=")
+        .str(if cfg!(feature = "fpu-product-vmul") {
+            "asm-vmul"
+        } else if cfg!(feature = "fpu-product") {
+            "asm-vmla"
+        } else {
+            "rust"
+        })
         .str(" instr_per_tick=")
         .fixed(cal.instructions(1000), 3)
         .str(" instr_per_step=")
