@@ -86,7 +86,7 @@ const _: () = {
     assert!(STIFFNESS <= 1020); // `ldrd`'s immediate offset
     assert!(offset_of!(NodeWork, q) == offset_of!(NodeWork, d) + 12);
     assert!(offset_of!(NodeWork, q) + 12 <= size_of::<NodeWork>());
-    assert!(size_of::<ElementBlock>() <= 4095); // `adds`' immediate
+    assert!(size_of::<ElementBlock>() <= 4095); // `add`'s (addw) immediate
 };
 
 /// `q += −K d` of every element of `blocks` (one element each), skipping an
@@ -105,8 +105,8 @@ pub(crate) fn product(per_young: [f32; 2], blocks: &[ElementBlock], work: &mut [
         .wrapping_add(offset_of!(NodeWork, d));
     // SAFETY:
     // * reads: `p` walks the blocks of `blocks` (from the first block's
-    //   stiffness to one block past the last: `cmp`/`beq` before each
-    //   element), reading that block's node indices (8 bytes at `p −
+    //   stiffness to one block past the last: compared with `end` before
+    //   the first element and after each), reading that block's node indices (8 bytes at `p −
     //   STIFFNESS`) and its stiffness and gradients (40 bytes at `p`), all
     //   inside the block (layout checked above).
     // * node slots: each of the four indices is compared with `n =

@@ -645,22 +645,7 @@ pub(crate) fn stiffness<const AVX2: bool>(
     work: &mut [NodeWork],
 ) {
     if LANES == 1 {
-        let blocks = elems.get(..count).unwrap_or(&[]);
-        // The same product in assembly with `vldm`/`vstm` (same bits).
-        #[cfg(all(
-            feature = "fpu-product",
-            target_arch = "arm",
-            target_os = "none",
-            target_abi = "eabihf"
-        ))]
-        crate::fpu_product::product(per_young, blocks, work);
-        #[cfg(not(all(
-            feature = "fpu-product",
-            target_arch = "arm",
-            target_os = "none",
-            target_abi = "eabihf"
-        )))]
-        product_one_by_one(per_young, blocks, work);
+        product_one_by_one(per_young, elems.get(..count).unwrap_or(&[]), work);
         return;
     }
     let (whole, tail) = split(count);
@@ -674,6 +659,16 @@ pub(crate) fn stiffness<const AVX2: bool>(
     }
 }
 
+/// The stiffness product of one-element blocks in FPU assembly (see
+/// `product_one_by_one` below for the Rust one it replaces).
+#[cfg(all(
+    feature = "fpu-product",
+    target_arch = "arm",
+    target_os = "none",
+    target_abi = "eabihf"
+))]
+use crate::fpu_product::product as product_one_by_one;
+
 /// [`stiffness`] with one element per block (a Cortex-M4F): plain scalar
 /// code over a slice of exactly the used blocks. The four node indices are
 /// checked once, together; the indexing after the check compiles to no
@@ -682,17 +677,15 @@ pub(crate) fn stiffness<const AVX2: bool>(
 /// element there, and a per-index `get` 3 more.
 ///
 /// With feature `fpu-product` on bare-metal Arm hard-float targets,
-/// `crate::fpu_product` replaces it (the same operations in assembly); the
-/// firmware's builds without that feature run this one, with the same hash.
-#[cfg_attr(
-    all(
-        feature = "fpu-product",
-        target_arch = "arm",
-        target_os = "none",
-        target_abi = "eabihf"
-    ),
-    allow(dead_code)
-)]
+/// `crate::fpu_product::product` takes its place (the same operations in
+/// assembly, imported under this name below); the firmware's builds without
+/// that feature run this one, with the same hash.
+#[cfg(not(all(
+    feature = "fpu-product",
+    target_arch = "arm",
+    target_os = "none",
+    target_abi = "eabihf"
+)))]
 #[inline(always)]
 fn product_one_by_one(per_young: [f32; 2], blocks: &[ElementBlock], work: &mut [NodeWork]) {
     for blk in blocks {
