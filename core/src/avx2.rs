@@ -10,31 +10,61 @@
 //!
 //! ```text
 //! gather  8 rows [x y z ·] of a corner  → 4×4 transposes in both halves → X, Y, Z (8 lanes)
-//! scatter X, Y, Z of a corner → 8 rows [x y z 0] → row += into the node, element by element
+//! scatter X, Y, Z of a corner → 8 rows [x y z −0] → row += into the node, element by element
 //! ```
 //!
 //! A row is 16 bytes read from a 12-byte field: the fourth float is the next
-//! field of the same node (checked at compile time below), read and, when
-//! scattering, written back unchanged (a blend keeps its bits). Sums are
-//! still made one node at a time in element order, with the same IEEE
-//! additions, so the bits are those of the baseline build.
+//! field of the same node (checked at compile time below; `d` is read as
+//! `[r.z, d]`, see [`WorkD`]). When scattering, that fourth float gets `−0.0`
+//! added, which gives back its own bits for every value but a signalling NaN:
+//! the fields it falls on (`d.x`, `inv_p`) are results of arithmetic or
+//! finite inputs, never a signalling NaN. (A blend that kept them cost 32
+//! of the product's ~300 vector micro-operations per block: 2–4 % of the
+//! step.) Sums are still made one node at a time in element order, with
+//! the same IEEE additions, so the bits are those of the baseline build.
 
 #![allow(unsafe_code)] // raw 16-byte loads and stores; the safety of each is argued below
 
 use core::arch::x86_64::{
     __m128, __m256, _mm256_castps256_ps128, _mm256_cvtepu16_epi32, _mm256_extractf128_ps,
-    _mm256_mullo_epi32, _mm256_set1_epi32, _mm256_set_m128, _mm256_setzero_ps, _mm256_shuffle_ps,
-    _mm256_storeu_si256, _mm256_unpackhi_ps, _mm256_unpacklo_ps, _mm_add_ps, _mm_blend_ps,
-    _mm_loadu_ps, _mm_loadu_si128, _mm_storeu_ps,
+    _mm256_mullo_epi32, _mm256_set1_epi32, _mm256_set1_ps, _mm256_set_m128, _mm256_shuffle_ps,
+    _mm256_storeu_si256, _mm256_unpackhi_ps, _mm256_unpacklo_ps, _mm_add_ps, _mm_loadu_ps,
+    _mm_loadu_si128, _mm_storeu_ps,
 };
 use core::marker::PhantomData;
 use core::mem::{offset_of, size_of, transmute};
 
 use crate::element::{hform, Batch, ElementBlock};
 use crate::lanes::{Lanes, LANES};
-use crate::math::Real;
+use crate::math::{add, sub, Real};
 use crate::pass::share_of_a;
 use crate::storage::{Node, NodeWork};
+
+/// Keeps the lane values `v` apart from the code around them, in
+/// registers: an empty `asm!` that takes and returns them, so LLVM cannot
+/// merge the transposes into the kernels. (Without any barrier it did, and
+/// computed the product's second half 4 lanes wide: 1 195 instructions per
+/// block instead of 630; `black_box` kept them apart through the stack.)
+/// Compiled for AVX, as `asm!` with `ymm` registers must be; inlined, like
+/// the helpers below, where it is called.
+#[inline]
+#[target_feature(enable = "avx")]
+fn fence<const N: usize>(v: &mut [[Batch; 3]; N]) {
+    for c in v.iter_mut() {
+        let [mut x, mut y, mut z] = c.map(vector);
+        // SAFETY: an empty template; the registers come back unchanged.
+        unsafe {
+            core::arch::asm!(
+                "/* {0} {1} {2} */",
+                inout(ymm_reg) x,
+                inout(ymm_reg) y,
+                inout(ymm_reg) z,
+                options(pure, nomem, nostack, preserves_flags)
+            );
+        }
+        *c = [lanes(x), lanes(y), lanes(z)];
+    }
+}
 
 const _: () = assert!(LANES == 8, "the AVX2 moves fill 8 lanes");
 
@@ -43,8 +73,11 @@ const _: () = assert!(LANES == 8, "the AVX2 moves fill 8 lanes");
 pub(crate) trait Row {
     /// The slot type.
     type Slot;
-    /// Byte offset of the field in the slot.
+    /// Byte offset of the row in the slot.
     const OFFSET: usize;
+    /// Whether the row starts one float before the field (the field is in
+    /// floats 1..4 of the row, not 0..3).
+    const LEAD: bool = false;
 }
 
 /// Checks at compile time that a 16-byte row at `offset` lies inside a slot
@@ -67,7 +100,17 @@ macro_rules! row {
         }
     };
 }
-row!(WorkD, NodeWork, d);
+/// `NodeWork::d`, read as the row `[r.z, d.x, d.y, d.z]`: the row
+/// `[d.x, d.y, d.z, q.x]` would overlap the product's stores of `q` rows
+/// (`[q.x, q.y, q.z, inv_p]`) to the same node in an earlier block, and a
+/// load that overlaps a pending store only in part cannot take its data from
+/// it: it waits until the store has reached the cache.
+pub(crate) struct WorkD;
+impl Row for WorkD {
+    type Slot = NodeWork;
+    const OFFSET: usize = row_fits(offset_of!(NodeWork, d) - 4, size_of::<NodeWork>());
+    const LEAD: bool = true;
+}
 row!(WorkQ, NodeWork, q);
 row!(WorkR, NodeWork, r);
 row!(NodeX0, Node, x0);
@@ -125,6 +168,30 @@ impl<T> Corners<T> {
             slot: PhantomData,
         })
     }
+
+    /// The offsets, read from memory where used ([`opaque`]): not taken
+    /// from the vector registers they were computed in (with `vpextrd`, two
+    /// micro-operations on the vector ports each, which the product is
+    /// short of) but each loaded into a general register.
+    #[inline(always)]
+    fn table(&self) -> &[[u32; LANES]; 4] {
+        opaque(&self.offsets)
+    }
+}
+
+/// `r`, passed through an empty `asm!`: LLVM no longer knows where it points,
+/// so every value read through it is loaded where it is used (and can be a
+/// memory operand) rather than kept in a register, or spilled, from an
+/// earlier load.
+#[inline(always)]
+fn opaque<T>(r: &T) -> &T {
+    let mut p: *const T = r;
+    // SAFETY: an empty template; the pointer comes back unchanged.
+    unsafe {
+        core::arch::asm!("/* {0} */", inout(reg) p, options(pure, readonly, nostack, preserves_flags));
+    }
+    // SAFETY: `p` is `r`, borrowed as long as the result.
+    unsafe { &*p }
 }
 
 /// The row field `R` of corner `k` (8 lanes) of `slots`, in lanes
@@ -138,7 +205,7 @@ impl<T> Corners<T> {
 /// below, their intrinsics are compiled for AVX2.)
 #[inline(always)]
 unsafe fn gather<R: Row>(slots: &[R::Slot], corners: &Corners<R::Slot>, k: usize) -> [Batch; 3] {
-    let (Some(offsets), true) = (corners.offsets.get(k), slots.len() >= corners.len) else {
+    let (Some(offsets), true) = (corners.table().get(k), slots.len() >= corners.len) else {
         return [Batch::splat(0.0); 3];
     };
     let base = slots.as_ptr().cast::<u8>();
@@ -157,6 +224,14 @@ unsafe fn gather<R: Row>(slots: &[R::Slot], corners: &Corners<R::Slot>, k: usize
     let b = _mm256_unpacklo_ps(t2, t3); // x2 x3 y2 y3 | x6 x7 y6 y7
     let c = _mm256_unpackhi_ps(t0, t1); // z0 z1 ·  ·  | z4 z5 ·  ·
     let d = _mm256_unpackhi_ps(t2, t3); // z2 z3 ·  ·  | z6 z7 ·  ·
+    if R::LEAD {
+        // Rows [· x y z]: a, b hold · and x, c, d hold y and z.
+        return [
+            lanes(_mm256_shuffle_ps::<0xEE>(a, b)),
+            lanes(_mm256_shuffle_ps::<0x44>(c, d)),
+            lanes(_mm256_shuffle_ps::<0xEE>(c, d)),
+        ];
+    }
     [
         lanes(_mm256_shuffle_ps::<0x44>(a, b)), // x0 x1 x2 x3 | x4 x5 x6 x7
         lanes(_mm256_shuffle_ps::<0xEE>(a, b)), // y0 .. y7
@@ -182,7 +257,7 @@ unsafe fn gather4<R: Row>(slots: &[R::Slot], c: &Corners<R::Slot>) -> [[Batch; 3
     }
 }
 
-/// `[X, Y, Z]` (8 lanes) as the rows `[xⱼ, yⱼ, zⱼ, 0]` of lanes `j = 0..8`.
+/// `[X, Y, Z]` (8 lanes) as the rows `[xⱼ, yⱼ, zⱼ, −0]` of lanes `j = 0..8`.
 ///
 /// # Safety
 ///
@@ -190,12 +265,13 @@ unsafe fn gather4<R: Row>(slots: &[R::Slot], c: &Corners<R::Slot>) -> [[Batch; 3
 #[inline(always)]
 unsafe fn rows(v: &[Batch; 3]) -> [__m128; LANES] {
     let [x, y, z] = v.map(vector);
-    let zero = _mm256_setzero_ps();
+    // −0.0: adding it leaves any other float's bits (+0 + −0 = +0).
+    let zero = _mm256_set1_ps(-0.0);
     let a = _mm256_unpacklo_ps(x, y); // x0 y0 x1 y1 | x4 y4 x5 y5
     let b = _mm256_unpackhi_ps(x, y); // x2 y2 x3 y3 | x6 y6 x7 y7
-    let c = _mm256_unpacklo_ps(z, zero); // z0 0 z1 0 | z4 0 z5 0
-    let d = _mm256_unpackhi_ps(z, zero); // z2 0 z3 0 | z6 0 z7 0
-    let r04 = _mm256_shuffle_ps::<0x44>(a, c); // x0 y0 z0 0 | x4 y4 z4 0
+    let c = _mm256_unpacklo_ps(z, zero); // z0 −0 z1 −0 | z4 −0 z5 −0
+    let d = _mm256_unpackhi_ps(z, zero); // z2 −0 z3 −0 | z6 −0 z7 −0
+    let r04 = _mm256_shuffle_ps::<0x44>(a, c); // x0 y0 z0 −0 | x4 y4 z4 −0
     let r15 = _mm256_shuffle_ps::<0xEE>(a, c);
     let r26 = _mm256_shuffle_ps::<0x44>(b, d);
     let r37 = _mm256_shuffle_ps::<0xEE>(b, d);
@@ -211,11 +287,12 @@ unsafe fn rows(v: &[Batch; 3]) -> [__m128; LANES] {
     ]
 }
 
-/// `slot.R += [x, y, z]` for the rows `rows[k][j] = [x, y, z, 0]` of the
+/// `slot.R += [x, y, z]` for the rows `rows[k][j] = [x, y, z, −0]` of the
 /// nodes of `corners`, lane after lane (element order), corners `a, b, c, d`
 /// in each: the sums the scalar code makes, in its order, each `field +
-/// value`; the fourth float (the next field) is written back with its own
-/// bits. Nothing if `slots` is shorter than `corners` needs.
+/// value`; the fourth float (the next field) gets `−0.0` added, which
+/// leaves its bits (see the module's documentation). Nothing if `slots` is
+/// shorter than `corners` needs.
 ///
 /// # Safety
 ///
@@ -231,13 +308,12 @@ unsafe fn scatter<R: Row>(
     }
     let base = slots.as_mut_ptr().cast::<u8>();
     for j in 0..LANES {
-        for (offsets, rk) in corners.offsets.iter().zip(rows) {
+        for (offsets, rk) in corners.table().iter().zip(rows) {
             // SAFETY: as in `gather`; `slots` is borrowed mutably.
             unsafe {
                 let p = base.add(offsets[j] as usize + R::OFFSET).cast::<f32>();
                 let old = _mm_loadu_ps(p);
-                let sum = _mm_add_ps(old, rk[j]);
-                _mm_storeu_ps(p, _mm_blend_ps::<0b0111>(old, sum));
+                _mm_storeu_ps(p, _mm_add_ps(old, rk[j]));
             }
         }
     }
@@ -277,79 +353,142 @@ pub(crate) fn product_block(
     };
     // SAFETY (of the helpers): this function runs only on CPUs with AVX2.
     let mut x = unsafe { gather4::<WorkD>(work, &corners) };
-    // (`black_box`, here and below, keeps the transposes apart from the
-    // kernel: without it LLVM merged them into the kernel and computed its
-    // second half 4 lanes wide, 1 195 instructions per block instead of 630.)
-    core::hint::black_box(&mut x);
+    fence(&mut x);
     let lame = crate::material::lame(blk.stiffness, per_young);
-    let kd = hform::stiffness_product(&x, &blk.grad, lame);
+    let s = hform::product_stress(&x, &blk.grad, lame);
+    // The gradients again for the forces: kept in registers from the
+    // stress, LLVM spilled them.
+    let kd = hform::product_forces(&s, opaque(&blk.grad));
     // Node a's share in lanes too, before the barrier (after it, LLVM
     // computed it half in 4-wide, half in 2-wide pieces).
     let mut kd = [share_of_a(&kd), kd[0], kd[1], kd[2]];
-    core::hint::black_box(&mut kd);
+    fence(&mut kd);
     // SAFETY: as above. (Not `array::map`: it was not inlined.)
-    let r = unsafe { [rows(&kd[0]), rows(&kd[1]), rows(&kd[2]), rows(&kd[3])] };
-    unsafe { scatter::<WorkQ>(work, &corners, &r) };
+    unsafe {
+        let r = [rows(&kd[0]), rows(&kd[1]), rows(&kd[2]), rows(&kd[3])];
+        scatter::<WorkQ>(work, &corners, &r);
+    }
     true
 }
 
-/// The rest positions, displacements and (with `WITH_V`, else zeros)
-/// velocities of a block's nodes `ids`, in lanes: `[x0, u, v]`, each
-/// `[corner][component]`; `None` if an index is out of range. The caller
-/// must run on a CPU with AVX2.
-#[inline]
-#[target_feature(enable = "avx2")]
-pub(crate) fn gather_nodes<const WITH_V: bool>(
+/// The edges `b − a, c − a, d − a` of a block's elements `ids`, in lanes:
+/// rest (`x0`), displacement (`u`) and current (their sum), as
+/// `pass::diffs` and `element::current_edges` form them; `None` if an index
+/// is out of range. Corner by corner, so that only the edges stay live.
+///
+/// # Safety
+///
+/// The CPU must support AVX2. (Inlined into the force pass compiled for
+/// AVX2, as [`scatter_forces`] is.)
+#[inline(always)]
+pub(crate) unsafe fn gather_edges(
     nodes: &[Node],
     ids: &[[u16; LANES]; 4],
-) -> Option<[[[Batch; 3]; 4]; 3]> {
-    // SAFETY: this function runs only on CPUs with AVX2.
+) -> Option<[[[Batch; 3]; 3]; 3]> {
+    // SAFETY (of every call below): the caller's.
     let c = unsafe { Corners::<Node>::new(ids, nodes.len()) }?;
-    // SAFETY (of the helpers): this function runs only on CPUs with AVX2.
-    // (Each array built whole: zeroing them first cost a `memset` call.)
-    let out = unsafe {
+    let mut a = unsafe {
         [
-            gather4::<NodeX0>(nodes, &c),
-            gather4::<NodeU>(nodes, &c),
-            if WITH_V {
-                gather4::<NodeV>(nodes, &c)
-            } else {
-                [[Batch::splat(0.0); 3]; 4]
-            },
+            gather::<NodeX0>(nodes, &c, 0),
+            gather::<NodeU>(nodes, &c, 0),
         ]
     };
-    Some(out)
+    unsafe { fence(&mut a) };
+    let [b, cc, d] = unsafe {
+        [
+            edge(nodes, &c, 1, &a),
+            edge(nodes, &c, 2, &a),
+            edge(nodes, &c, 3, &a),
+        ]
+    };
+    Some([
+        [b[0], cc[0], d[0]],
+        [b[1], cc[1], d[1]],
+        [b[2], cc[2], d[2]],
+    ])
 }
 
-/// The force pass's sums for a whole block: `r += f` and `q += kv` of each
-/// node, element after element, node `a` getting `−(f_b + f_c + f_d)` (and
-/// the same of `kv`), as [`crate::pass::IntoWork`] adds them. Returns
-/// `false`, having done nothing, if a node index is out of range. The
-/// caller must run on a CPU with AVX2.
-#[inline]
-#[target_feature(enable = "avx2")]
-pub(crate) fn scatter_forces(
+/// The rest, displacement and current edge from corner `a` to corner `k`
+/// of the nodes `c` (`a` holds corner `a`'s rest position and displacement).
+///
+/// # Safety
+///
+/// The CPU must support AVX2.
+#[inline(always)]
+unsafe fn edge(
+    nodes: &[Node],
+    c: &Corners<Node>,
+    k: usize,
+    a: &[[Batch; 3]; 2],
+) -> [[Batch; 3]; 3] {
+    // SAFETY: the caller's.
+    let mut p = unsafe { [gather::<NodeX0>(nodes, c, k), gather::<NodeU>(nodes, c, k)] };
+    // SAFETY: as above.
+    unsafe { fence(&mut p) };
+    let (rest, du) = (sub(p[0], a[0]), sub(p[1], a[1]));
+    [rest, du, add(rest, du)]
+}
+
+/// The velocities of a block's nodes `ids`, in lanes `[corner][component]`
+/// (zeros if an index is out of range, which [`gather_edges`] has ruled
+/// out).
+///
+/// # Safety
+///
+/// The CPU must support AVX2. (Inlined as [`gather_edges`] is.)
+#[inline(always)]
+unsafe fn gather_velocities(nodes: &[Node], ids: &[[u16; LANES]; 4]) -> [[Batch; 3]; 4] {
+    // SAFETY (of both calls): the caller's.
+    match unsafe { Corners::<Node>::new(ids, nodes.len()) } {
+        Some(c) => unsafe { gather4::<NodeV>(nodes, &c) },
+        None => [[Batch::splat(0.0); 3]; 4],
+    }
+}
+
+/// The force pass's sums for a whole block: `r += f` and (with `WITH_KV`)
+/// `q += −K v` of each node, element after element, node `a` getting
+/// `−(f_b + f_c + f_d)` (and the same of `−K v`), as
+/// [`crate::pass::IntoWork`] adds them. `−K v` is computed here, from the
+/// velocities of `nodes` and the world gradients `grad`, after the forces
+/// are out: gathered before the kernel and kept through it, the velocities
+/// spilled. Returns `false`, having done nothing, if a node index is out of
+/// range.
+///
+/// # Safety
+///
+/// The CPU must support AVX2. (Not a `#[target_feature]` function but one
+/// inlined into the force pass compiled for AVX2: with every method built,
+/// LLVM left a `#[target_feature]` one out of line, called from each
+/// method's pass, and the forces and gradients went through memory.)
+#[inline(always)]
+pub(crate) unsafe fn scatter_forces<const WITH_KV: bool>(
     work: &mut [NodeWork],
+    nodes: &[Node],
     ids: &[[u16; LANES]; 4],
     f: &[[Batch; 3]; 3],
-    kv: &[[Batch; 3]; 3],
+    grad: &[[Batch; 3]; 3],
+    lame: [Batch; 2],
 ) -> bool {
-    // SAFETY: this function runs only on CPUs with AVX2.
+    // SAFETY (of every call below): the caller's.
     let Some(c) = (unsafe { Corners::<NodeWork>::new(ids, work.len()) }) else {
         return false;
     };
-    let mut fk = [
-        [share_of_a(f), f[0], f[1], f[2]],
-        [share_of_a(kv), kv[0], kv[1], kv[2]],
-    ];
-    core::hint::black_box(&mut fk); // see `product_block`
-    let [f, kv] = &fk;
-    // SAFETY (of the helpers): this function runs only on CPUs with AVX2.
+    let mut fa = [share_of_a(f), f[0], f[1], f[2]];
     unsafe {
-        let r = [rows(&f[0]), rows(&f[1]), rows(&f[2]), rows(&f[3])];
+        fence(&mut fa);
+        let r = [rows(&fa[0]), rows(&fa[1]), rows(&fa[2]), rows(&fa[3])];
         scatter::<WorkR>(work, &c, &r);
-        let r = [rows(&kv[0]), rows(&kv[1]), rows(&kv[2]), rows(&kv[3])];
-        scatter::<WorkQ>(work, &c, &r);
+    }
+    if WITH_KV {
+        let mut vel = unsafe { gather_velocities(nodes, ids) };
+        unsafe { fence(&mut vel) };
+        let kv = hform::stiffness_product(&vel, grad, lame);
+        let mut kva = [share_of_a(&kv), kv[0], kv[1], kv[2]];
+        unsafe {
+            fence(&mut kva);
+            let r = [rows(&kva[0]), rows(&kva[1]), rows(&kva[2]), rows(&kva[3])];
+            scatter::<WorkQ>(work, &c, &r);
+        }
     }
     true
 }

@@ -442,30 +442,24 @@ impl<S: Sink, const AVX2: bool> ForcePass<'_, S, AVX2> {
     ) {
         let zero = Batch::splat(0.0);
         // Rest positions, displacements (and velocities) in lanes.
-        let (x0, u, vel, present) = match self.gather_avx2::<WITH_KV>(blk, lanes) {
-            Some([x0, u, vel]) => (x0, u, vel, [true; LANES]),
-            None => {
-                let mut x0 = [[zero; 3]; 4];
-                let mut u = [[zero; 3]; 4];
-                let mut vel = [[zero; 3]; 4];
-                let present = gather_corners(
-                    self.nodes,
-                    blk,
-                    lanes,
-                    #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
-                    |k, j, n: &Node| {
-                        if let (Some(x0), Some(u)) = (x0.get_mut(k), u.get_mut(k)) {
-                            Batch::put(x0, j, n.x0);
-                            Batch::put(u, j, n.u);
-                        }
-                        if let (true, Some(v)) = (WITH_KV, vel.get_mut(k)) {
-                            Batch::put(v, j, n.v);
-                        }
-                    },
-                );
-                (x0, u, vel, present)
-            }
-        };
+        let mut x0 = [[zero; 3]; 4];
+        let mut u = [[zero; 3]; 4];
+        let mut vel = [[zero; 3]; 4];
+        let present = gather_corners(
+            self.nodes,
+            blk,
+            lanes,
+            #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
+            |k, j, n: &Node| {
+                if let (Some(x0), Some(u)) = (x0.get_mut(k), u.get_mut(k)) {
+                    Batch::put(x0, j, n.x0);
+                    Batch::put(u, j, n.u);
+                }
+                if let (true, Some(v)) = (WITH_KV, vel.get_mut(k)) {
+                    Batch::put(v, j, n.v);
+                }
+            },
+        );
         // The same operations as one element at a time, on every lane.
         let rest = diffs(&x0);
         let du = diffs(&u);
@@ -484,9 +478,6 @@ impl<S: Sink, const AVX2: bool> ForcePass<'_, S, AVX2> {
         } else {
             [[zero; 3]; 3]
         };
-        if self.finish_avx2::<K, COMMIT>(blk, lanes, &present, &out, &kv) {
-            return;
-        }
         // Finish in element order.
         for j in 0..lanes {
             if !present.get(j).copied().unwrap_or(false) {
@@ -526,47 +517,64 @@ impl<S: Sink, const AVX2: bool> ForcePass<'_, S, AVX2> {
         }
     }
 
-    /// With `AVX2`, a whole block's rest positions, displacements and (with
-    /// `WITH_V`) velocities, in lanes, gathered by `crate::avx2`; `None`
-    /// otherwise or if a node index is out of range.
+    /// With `AVX2`, a whole block whose lanes all take the kernel's regular
+    /// path, written into the step's node work ([`IntoWork`]) with
+    /// `crate::avx2`: the same operations as [`Self::batched`] and the node
+    /// sums of its per-lane finish, in their order. Returns whether it did;
+    /// if not (another sink, a node index out of range, an irregular lane),
+    /// it has changed nothing, and [`Self::batched`] does the block.
+    ///
+    /// The edges are formed corner by corner as the nodes are gathered and
+    /// the velocities gathered after the kernel, so that only the current
+    /// edges are live through it: gathering the rest positions,
+    /// displacements and velocities of all four corners first kept 36
+    /// vectors live, and the pass was bound by its stores to the stack.
     #[inline(always)]
-    fn gather_avx2<const WITH_V: bool>(
-        &self,
-        blk: &ElementBlock,
-        lanes: usize,
-    ) -> Option<[[[Batch; 3]; 4]; 3]> {
-        #[cfg(target_arch = "x86_64")]
-        if AVX2 && lanes == LANES {
-            #[allow(unsafe_code)]
-            // SAFETY: `AVX2` is true only in `step::step_avx2`, whose callers
-            // promise a CPU with AVX2.
-            return unsafe { crate::avx2::gather_nodes::<WITH_V>(self.nodes, &blk.nodes) };
-        }
-        let _ = (blk, lanes);
-        None
-    }
-
-    /// With `AVX2`, finishes a whole block whose lanes are all present and
-    /// regular, writing into the step's node work ([`IntoWork`]) with
-    /// `crate::avx2`: the totals, the committed state and the node sums of
-    /// the per-lane finish, in its order. Returns whether it did.
-    #[inline(always)]
-    fn finish_avx2<K: LaneKernel, const COMMIT: bool>(
+    fn fast_block<K: LaneKernel, const WITH_KV: bool, const COMMIT: bool>(
         &mut self,
         blk: &mut ElementBlock,
         lanes: usize,
-        present: &[bool; LANES],
-        out: &LaneForces,
-        kv: &[[Batch; 3]; 3],
     ) -> bool {
         #[cfg(target_arch = "x86_64")]
-        if AVX2 && lanes == LANES && present.iter().chain(&out.regular).all(|&p| p) {
+        if AVX2 && lanes == LANES && self.sink.work().is_some() {
+            #[allow(unsafe_code)]
+            // SAFETY: `AVX2` is true only in `step::step_avx2`, whose callers
+            // promise a CPU with AVX2.
+            let Some([_rest, _du, cur]) =
+                (unsafe { crate::avx2::gather_edges(self.nodes, &blk.nodes) })
+            else {
+                return false;
+            };
+            // (The edges a kernel does not read are not computed: all of
+            // this is inlined.)
+            let edges = Edges {
+                #[cfg(feature = "polar")]
+                rest: _rest,
+                #[cfg(feature = "linear")]
+                du: _du,
+                cur,
+            };
+            let lame = crate::material::lame(blk.stiffness, self.per_young);
+            let out = K::run(&edges, blk, lame);
+            if !out.regular.iter().all(|&r| r) {
+                return false;
+            }
             let Some(work) = self.sink.work() else {
                 return false;
             };
             #[allow(unsafe_code)]
-            // SAFETY: as in `gather_avx2`.
-            if !unsafe { crate::avx2::scatter_forces(work, &blk.nodes, &out.k.f, kv) } {
+            // SAFETY: as above.
+            let done = unsafe {
+                crate::avx2::scatter_forces::<WITH_KV>(
+                    work,
+                    self.nodes,
+                    &blk.nodes,
+                    &out.k.f,
+                    &out.k.grad,
+                    lame,
+                )
+            };
+            if !done {
                 return false;
             }
             for (volume, energy) in out.volume.0.iter().zip(out.k.energy.0) {
@@ -585,7 +593,7 @@ impl<S: Sink, const AVX2: bool> ForcePass<'_, S, AVX2> {
             }
             return true;
         }
-        let _ = (blk, lanes, present, out, kv);
+        let _ = (blk, lanes);
         false
     }
 
@@ -625,7 +633,9 @@ fn batched_avx2<
     blk: &mut ElementBlock,
     lanes: usize,
 ) {
-    pass.batched::<K, WITH_KV, COMMIT>(blk, lanes);
+    if !pass.fast_block::<K, WITH_KV, COMMIT>(blk, lanes) {
+        pass.batched::<K, WITH_KV, COMMIT>(blk, lanes);
+    }
 }
 
 /// Stiffness product `q += −K d` of the first `count` elements, with the

@@ -210,9 +210,10 @@ fn step_inline<const AVX2: bool>(v: View<'_>) -> Result<StepStats, StepError> {
         from_guess,
         #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
         |i: usize, z: Vec3| -> Vec3 {
+            // The ground first: without it, the loop reads no node flags.
             #[cfg(feature = "ground")]
-            if let (Some(g), Some(n)) = (ground, nodes.get(i)) {
-                if n.flags & CONTACT != 0 {
+            if let Some(g) = ground {
+                if nodes.get(i).is_some_and(|n| n.flags & CONTACT != 0) {
                     return g.filter(z);
                 }
             }
@@ -229,7 +230,7 @@ fn step_inline<const AVX2: bool>(v: View<'_>) -> Result<StepStats, StepError> {
                 #[allow(unused_mut)] // only the tool adds to it
                 let mut p = mass_coef * n.mass;
                 #[cfg(feature = "tool")]
-                if n.flags & GRABBED != 0 && tool.active() {
+                if tool.active() && n.flags & GRABBED != 0 {
                     p += h * h * tool.k_node;
                 }
                 w.q = axpy(scale(w.d, p), -k_coef, w.q);

@@ -88,11 +88,25 @@ pub(crate) fn stiffness_product<T: Real>(
     g: &[[T; 3]; 3],
     lame: [T; 2],
 ) -> [[T; 3]; 3] {
+    product_forces(&product_stress(x, g, lame), g)
+}
+
+/// The stress of [`stiffness_product`]: `σ` of the node vectors `x`.
+#[inline(always)]
+#[must_use]
+pub(crate) fn product_stress<T: Real>(x: &[[T; 3]; 4], g: &[[T; 3]; 3], lame: [T; 2]) -> Sym<T> {
     let d = [sub(x[1], x[0]), sub(x[2], x[0]), sub(x[3], x[0])];
-    let s = stress(&grad_h(&d, g), lame);
+    stress(&grad_h(&d, g), lame)
+}
+
+/// The forces of [`stiffness_product`] from its stress `s`: `−σ gᵢ` for
+/// `b, c, d`.
+#[inline(always)]
+#[must_use]
+pub(crate) fn product_forces<T: Real>(s: &Sym<T>, g: &[[T; 3]; 3]) -> [[T; 3]; 3] {
     [
-        neg_stress_times(&s, g[0]),
-        neg_stress_times(&s, g[1]),
-        neg_stress_times(&s, g[2]),
+        neg_stress_times(s, g[0]),
+        neg_stress_times(s, g[1]),
+        neg_stress_times(s, g[2]),
     ]
 }
