@@ -371,10 +371,14 @@ pub(crate) fn product_block(
     true
 }
 
+/// Three edge vectors in lanes, `[edge][component]`.
+type Edges3 = [[Batch; 3]; 3];
+
 /// The edges `b − a, c − a, d − a` of a block's elements `ids`, in lanes:
 /// rest (`x0`), displacement (`u`) and current (their sum), as
-/// `pass::diffs` and `element::current_edges` form them; `None` if an index
-/// is out of range. Corner by corner, so that only the edges stay live.
+/// `pass::diffs` and `element::current_edges` form them, and the block's
+/// node offsets for [`scatter_forces`]; `None` if an index is out of range.
+/// Corner by corner, so that only the edges stay live.
 ///
 /// # Safety
 ///
@@ -384,7 +388,7 @@ pub(crate) fn product_block(
 pub(crate) unsafe fn gather_edges(
     nodes: &[Node],
     ids: &[[u16; LANES]; 4],
-) -> Option<[[[Batch; 3]; 3]; 3]> {
+) -> Option<(Corners<Node>, [Edges3; 3])> {
     // SAFETY (of every call below): the caller's.
     let c = unsafe { Corners::<Node>::new(ids, nodes.len()) }?;
     let mut a = unsafe {
@@ -401,11 +405,12 @@ pub(crate) unsafe fn gather_edges(
             edge(nodes, &c, 3, &a),
         ]
     };
-    Some([
+    let edges = [
         [b[0], cc[0], d[0]],
         [b[1], cc[1], d[1]],
         [b[2], cc[2], d[2]],
-    ])
+    ];
+    Some((c, edges))
 }
 
 /// The rest, displacement and current edge from corner `a` to corner `k`
@@ -429,27 +434,12 @@ unsafe fn edge(
     [rest, du, add(rest, du)]
 }
 
-/// The velocities of a block's nodes `ids`, in lanes `[corner][component]`
-/// (zeros if an index is out of range, which [`gather_edges`] has ruled
-/// out).
-///
-/// # Safety
-///
-/// The CPU must support AVX2. (Inlined as [`gather_edges`] is.)
-#[inline(always)]
-unsafe fn gather_velocities(nodes: &[Node], ids: &[[u16; LANES]; 4]) -> [[Batch; 3]; 4] {
-    // SAFETY (of both calls): the caller's.
-    match unsafe { Corners::<Node>::new(ids, nodes.len()) } {
-        Some(c) => unsafe { gather4::<NodeV>(nodes, &c) },
-        None => [[Batch::splat(0.0); 3]; 4],
-    }
-}
-
 /// The force pass's sums for a whole block: `r += f` and (with `WITH_KV`)
 /// `q += −K v` of each node, element after element, node `a` getting
 /// `−(f_b + f_c + f_d)` (and the same of `−K v`), as
 /// [`crate::pass::IntoWork`] adds them. `−K v` is computed here, from the
-/// velocities of `nodes` and the world gradients `grad`, after the forces
+/// velocities of `nodes` (at the offsets `at`, from [`gather_edges`]) and
+/// the world gradients `grad`, after the forces
 /// are out: gathered before the kernel and kept through it, the velocities
 /// spilled. Returns `false`, having done nothing, if a node index is out of
 /// range.
@@ -464,6 +454,7 @@ unsafe fn gather_velocities(nodes: &[Node], ids: &[[u16; LANES]; 4]) -> [[Batch;
 pub(crate) unsafe fn scatter_forces<const WITH_KV: bool>(
     work: &mut [NodeWork],
     nodes: &[Node],
+    at: &Corners<Node>,
     ids: &[[u16; LANES]; 4],
     f: &[[Batch; 3]; 3],
     grad: &[[Batch; 3]; 3],
@@ -480,7 +471,7 @@ pub(crate) unsafe fn scatter_forces<const WITH_KV: bool>(
         scatter::<WorkR>(work, &c, &r);
     }
     if WITH_KV {
-        let mut vel = unsafe { gather_velocities(nodes, ids) };
+        let mut vel = unsafe { gather4::<NodeV>(nodes, at) };
         unsafe { fence(&mut vel) };
         let kv = hform::stiffness_product(&vel, grad, lame);
         let mut kva = [share_of_a(&kv), kv[0], kv[1], kv[2]];

@@ -540,7 +540,7 @@ impl<S: Sink, const AVX2: bool> ForcePass<'_, S, AVX2> {
             #[allow(unsafe_code)]
             // SAFETY: `AVX2` is true only in `step::step_avx2`, whose callers
             // promise a CPU with AVX2.
-            let Some([_rest, _du, cur]) =
+            let Some((at, [_rest, _du, cur])) =
                 (unsafe { crate::avx2::gather_edges(self.nodes, &blk.nodes) })
             else {
                 return false;
@@ -568,6 +568,7 @@ impl<S: Sink, const AVX2: bool> ForcePass<'_, S, AVX2> {
                 crate::avx2::scatter_forces::<WITH_KV>(
                     work,
                     self.nodes,
+                    &at,
                     &blk.nodes,
                     &out.k.f,
                     &out.k.grad,
