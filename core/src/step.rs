@@ -230,7 +230,7 @@ fn step_inline<const AVX2: bool>(v: View<'_>) -> Result<StepStats, StepError> {
                 #[allow(unused_mut)] // only the tool adds to it
                 let mut p = mass_coef * n.mass;
                 #[cfg(feature = "tool")]
-                if tool.active() && n.flags & GRABBED != 0 {
+                if n.flags & GRABBED != 0 && tool.active() {
                     p += h * h * tool.k_node;
                 }
                 w.q = axpy(scale(w.d, p), -k_coef, w.q);
