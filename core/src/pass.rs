@@ -529,13 +529,13 @@ impl<S: Sink, const AVX2: bool> ForcePass<'_, S, AVX2> {
     /// edges are live through it: gathering the rest positions,
     /// displacements and velocities of all four corners first kept 36
     /// vectors live, and the pass was bound by its stores to the stack.
+    #[cfg(target_arch = "x86_64")]
     #[inline(always)]
     fn fast_block<K: LaneKernel, const WITH_KV: bool, const COMMIT: bool>(
         &mut self,
         blk: &mut ElementBlock,
         lanes: usize,
     ) -> bool {
-        #[cfg(target_arch = "x86_64")]
         if AVX2 && lanes == LANES && self.sink.work().is_some() {
             #[allow(unsafe_code)]
             // SAFETY: `AVX2` is true only in `step::step_avx2`, whose callers
@@ -594,7 +594,6 @@ impl<S: Sink, const AVX2: bool> ForcePass<'_, S, AVX2> {
             }
             return true;
         }
-        let _ = (blk, lanes);
         false
     }
 
