@@ -319,6 +319,30 @@ unsafe fn scatter<R: Row>(
     }
 }
 
+/// Adds each element's `[f_b, f_c, f_d]` (lanes) and node `a`'s share
+/// `−(f_b + f_c + f_d)` into the field `R` of its four nodes, as rows, in
+/// element order: the sums of `pass::scatter`, with its bits.
+///
+/// # Safety
+///
+/// The CPU must support AVX2.
+#[inline(always)]
+unsafe fn add_to_nodes<R: Row<Slot = NodeWork>>(
+    work: &mut [NodeWork],
+    c: &Corners<NodeWork>,
+    f: &[[Batch; 3]; 3],
+) {
+    // Node a's share in lanes too, before the barrier (after it, LLVM
+    // computed it half in 4-wide, half in 2-wide pieces).
+    let mut fa = [share_of_a(f), f[0], f[1], f[2]];
+    // SAFETY: the caller's. (Not `array::map`: it was not inlined.)
+    unsafe {
+        fence(&mut fa);
+        let r = [rows(&fa[0]), rows(&fa[1]), rows(&fa[2]), rows(&fa[3])];
+        scatter::<R>(work, c, &r);
+    }
+}
+
 /// An AVX register as lanes.
 #[inline(always)]
 fn lanes(v: __m256) -> Batch {
@@ -359,15 +383,8 @@ pub(crate) fn product_block(
     // The gradients again for the forces: kept in registers from the
     // stress, LLVM spilled them.
     let kd = hform::product_forces(&s, opaque(&blk.grad));
-    // Node a's share in lanes too, before the barrier (after it, LLVM
-    // computed it half in 4-wide, half in 2-wide pieces).
-    let mut kd = [share_of_a(&kd), kd[0], kd[1], kd[2]];
-    fence(&mut kd);
-    // SAFETY: as above. (Not `array::map`: it was not inlined.)
-    unsafe {
-        let r = [rows(&kd[0]), rows(&kd[1]), rows(&kd[2]), rows(&kd[3])];
-        scatter::<WorkQ>(work, &corners, &r);
-    }
+    // SAFETY: as above.
+    unsafe { add_to_nodes::<WorkQ>(work, &corners, &kd) };
     true
 }
 
@@ -464,22 +481,12 @@ pub(crate) unsafe fn scatter_forces<const WITH_KV: bool>(
     let Some(c) = (unsafe { Corners::<NodeWork>::new(ids, work.len()) }) else {
         return false;
     };
-    let mut fa = [share_of_a(f), f[0], f[1], f[2]];
-    unsafe {
-        fence(&mut fa);
-        let r = [rows(&fa[0]), rows(&fa[1]), rows(&fa[2]), rows(&fa[3])];
-        scatter::<WorkR>(work, &c, &r);
-    }
+    unsafe { add_to_nodes::<WorkR>(work, &c, f) };
     if WITH_KV {
         let mut vel = unsafe { gather4::<NodeV>(nodes, at) };
         unsafe { fence(&mut vel) };
         let kv = hform::stiffness_product(&vel, grad, lame);
-        let mut kva = [share_of_a(&kv), kv[0], kv[1], kv[2]];
-        unsafe {
-            fence(&mut kva);
-            let r = [rows(&kva[0]), rows(&kva[1]), rows(&kva[2]), rows(&kva[3])];
-            scatter::<WorkQ>(work, &c, &r);
-        }
+        unsafe { add_to_nodes::<WorkQ>(work, &c, &kv) };
     }
     true
 }

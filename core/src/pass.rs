@@ -536,65 +536,66 @@ impl<S: Sink, const AVX2: bool> ForcePass<'_, S, AVX2> {
         blk: &mut ElementBlock,
         lanes: usize,
     ) -> bool {
-        if AVX2 && lanes == LANES && self.sink.work().is_some() {
-            #[allow(unsafe_code)]
-            // SAFETY: `AVX2` is true only in `step::step_avx2`, whose callers
-            // promise a CPU with AVX2.
-            let Some((at, [_rest, _du, cur])) =
-                (unsafe { crate::avx2::gather_edges(self.nodes, &blk.nodes) })
-            else {
-                return false;
-            };
-            // (The edges a kernel does not read are not computed: all of
-            // this is inlined.)
-            let edges = Edges {
-                #[cfg(feature = "polar")]
-                rest: _rest,
-                #[cfg(feature = "linear")]
-                du: _du,
-                cur,
-            };
-            let lame = crate::material::lame(blk.stiffness, self.per_young);
-            let out = K::run(&edges, blk, lame);
-            if !out.regular.iter().all(|&r| r) {
-                return false;
-            }
-            let Some(work) = self.sink.work() else {
-                return false;
-            };
-            #[allow(unsafe_code)]
-            // SAFETY: as above.
-            let done = unsafe {
-                crate::avx2::scatter_forces::<WITH_KV>(
-                    work,
-                    self.nodes,
-                    &at,
-                    &blk.nodes,
-                    &out.k.f,
-                    &out.k.grad,
-                    lame,
-                )
-            };
-            if !done {
-                return false;
-            }
-            for (volume, energy) in out.volume.0.iter().zip(out.k.energy.0) {
-                self.totals.inverted += u32::from(*volume < 0.0);
-                self.totals.energy += energy;
-            }
-            if COMMIT {
-                // Row by row: the whole 288 bytes at once was a `memmove` call.
-                for (dst, src) in blk.grad.iter_mut().zip(&out.k.grad) {
-                    *dst = *src;
-                }
-                #[cfg(feature = "polar")]
-                if K::ROTATES {
-                    blk.rot = out.rot;
-                }
-            }
-            return true;
+        if !(AVX2 && lanes == LANES) {
+            return false;
         }
-        false
+        let nodes = self.nodes;
+        let Some(work) = self.sink.work() else {
+            return false;
+        };
+        #[allow(unsafe_code)]
+        // SAFETY: `AVX2` is true only in `step::step_avx2`, whose callers
+        // promise a CPU with AVX2.
+        let Some((at, [_rest, _du, cur])) =
+            (unsafe { crate::avx2::gather_edges(nodes, &blk.nodes) })
+        else {
+            return false;
+        };
+        // (The edges a kernel does not read are not computed: all of this
+        // is inlined.)
+        let edges = Edges {
+            #[cfg(feature = "polar")]
+            rest: _rest,
+            #[cfg(feature = "linear")]
+            du: _du,
+            cur,
+        };
+        let lame = crate::material::lame(blk.stiffness, self.per_young);
+        let out = K::run(&edges, blk, lame);
+        if !out.regular.iter().all(|&r| r) {
+            return false;
+        }
+        #[allow(unsafe_code)]
+        // SAFETY: as above.
+        let done = unsafe {
+            crate::avx2::scatter_forces::<WITH_KV>(
+                work,
+                nodes,
+                &at,
+                &blk.nodes,
+                &out.k.f,
+                &out.k.grad,
+                lame,
+            )
+        };
+        if !done {
+            return false;
+        }
+        for (volume, energy) in out.volume.0.iter().zip(out.k.energy.0) {
+            self.totals.inverted += u32::from(*volume < 0.0);
+            self.totals.energy += energy;
+        }
+        if COMMIT {
+            // Row by row: the whole 288 bytes at once was a `memmove` call.
+            for (dst, src) in blk.grad.iter_mut().zip(&out.k.grad) {
+                *dst = *src;
+            }
+            #[cfg(feature = "polar")]
+            if K::ROTATES {
+                blk.rot = out.rot;
+            }
+        }
+        true
     }
 
     /// Counts an element's energy and inversion, and hands `[f_b, f_c, f_d]`
