@@ -219,6 +219,12 @@ struct ForcePass<'a, S, const AVX2: bool> {
 
 /// A force kernel run on every lane of a block at once.
 trait LaneKernel {
+    /// The method the kernel computes: a lane it marks irregular is redone
+    /// by this method's one-element kernel alone. (With the block's runtime
+    /// method instead, every batched pass carried all four one-element
+    /// kernels, and the build with every method took LLVM over ten minutes
+    /// on a 2.4 GHz core.)
+    const METHOD: Method;
     /// Whether the kernel updates the elements' rotations (`Polar`).
     #[cfg(feature = "polar")]
     const ROTATES: bool = false;
@@ -260,6 +266,17 @@ struct QrLanes<const CURRENT_B: bool>;
 
 #[cfg(any(feature = "qr", feature = "qr-rest-b"))]
 impl<const CURRENT_B: bool> LaneKernel for QrLanes<CURRENT_B> {
+    // (With one of the two methods compiled, only its kernel is used.)
+    #[cfg(all(feature = "qr", feature = "qr-rest-b"))]
+    const METHOD: Method = if CURRENT_B {
+        Method::Qr
+    } else {
+        Method::QrRestB
+    };
+    #[cfg(not(feature = "qr-rest-b"))]
+    const METHOD: Method = Method::Qr;
+    #[cfg(not(feature = "qr"))]
+    const METHOD: Method = Method::QrRestB;
     #[inline(always)]
     fn run(edges: &Edges, blk: &ElementBlock, lame: [Batch; 2]) -> LaneForces {
         let cur = &edges.cur;
@@ -287,6 +304,7 @@ struct LinearLanes;
 
 #[cfg(feature = "linear")]
 impl LaneKernel for LinearLanes {
+    const METHOD: Method = Method::Linear;
     #[inline(always)]
     fn run(edges: &Edges, blk: &ElementBlock, lame: [Batch; 2]) -> LaneForces {
         let cur = &edges.cur;
@@ -307,6 +325,7 @@ struct PolarLanes;
 
 #[cfg(feature = "polar")]
 impl LaneKernel for PolarLanes {
+    const METHOD: Method = Method::Polar;
     const ROTATES: bool = true;
     #[inline(always)]
     fn run(edges: &Edges, blk: &ElementBlock, lame: [Batch; 2]) -> LaneForces {
@@ -353,10 +372,11 @@ impl<S: Sink, const AVX2: bool> ForcePass<'_, S, AVX2> {
         }
     }
 
-    /// [`Self::batched`], inlined; with `AVX2`, a function compiled for AVX2
-    /// instead, out of line (one per kernel). Inlining every method's
-    /// batched pass into the AVX2 step as well made one huge function that
-    /// took LLVM minutes to compile.
+    /// [`Self::batched`] out of line, one function per kernel: compiled for
+    /// AVX2 with `AVX2`, for the baseline otherwise. Inlining every method's
+    /// batched pass into the step made one huge function that took LLVM
+    /// minutes to compile (over eight with every feature, on a 2.4 GHz
+    /// core; one minute now).
     #[inline(always)]
     fn lanes<K: LaneKernel, const WITH_KV: bool, const COMMIT: bool>(
         &mut self,
@@ -373,7 +393,7 @@ impl<S: Sink, const AVX2: bool> ForcePass<'_, S, AVX2> {
             }
             return;
         }
-        self.batched::<K, WITH_KV, COMMIT>(blk, lanes);
+        batched_baseline::<S, K, AVX2, WITH_KV, COMMIT>(self, blk, lanes);
     }
 
     /// The first `lanes` elements of a block, one at a time (every method;
@@ -392,17 +412,18 @@ impl<S: Sink, const AVX2: bool> ForcePass<'_, S, AVX2> {
             let rest = diffs(&[n[0].x0, n[1].x0, n[2].x0, n[3].x0]);
             let du = diffs(&[n[0].u, n[1].u, n[2].u, n[3].u]);
             let vel = || [n[0].v, n[1].v, n[2].v, n[3].v];
-            self.one::<WITH_KV, COMMIT>(blk, j, &rest, &du, vel);
+            self.one::<WITH_KV, COMMIT>(self.method, blk, j, &rest, &du, vel);
         }
     }
 
-    /// Element `j` of a block alone, from its rest edges, displacement
+    /// Element `j` of a block alone with `method`, from its rest edges, displacement
     /// differences and node velocities (`vel`, called only with `WITH_KV`,
     /// once the forces are out: loaded where they are used, they are not
     /// kept in registers through the force kernel).
     #[inline(always)]
     fn one<const WITH_KV: bool, const COMMIT: bool>(
         &mut self,
+        method: Method,
         blk: &mut ElementBlock,
         j: usize,
         rest: &[Vec3; 3],
@@ -410,7 +431,7 @@ impl<S: Sink, const AVX2: bool> ForcePass<'_, S, AVX2> {
         vel: impl FnOnce() -> [Vec3; 4],
     ) {
         let mut el = blk.get(j);
-        let out = element::forces(self.method, &mut el, self.per_young, rest, du);
+        let out = element::forces(method, &mut el, self.per_young, rest, du);
         el.grad = out.grad;
         // The forces first, then `−K v`: the two go to different sums, so
         // the order between them changes no bits, and the forces' registers
@@ -492,7 +513,7 @@ impl<S: Sink, const AVX2: bool> ForcePass<'_, S, AVX2> {
                     [l(0), l(1), l(2), l(3)]
                 };
                 let (rest, du) = (diffs(&corners(&x0)), diffs(&corners(&u)));
-                self.one::<WITH_KV, COMMIT>(blk, j, &rest, &du, || corners(&vel));
+                self.one::<WITH_KV, COMMIT>(K::METHOD, blk, j, &rest, &du, || corners(&vel));
                 continue;
             }
             let lane = |v: Batch| v.0.get(j).copied().unwrap_or(0.0);
@@ -637,6 +658,26 @@ fn batched_avx2<
     if !pass.fast_block::<K, WITH_KV, COMMIT>(blk, lanes) {
         pass.batched::<K, WITH_KV, COMMIT>(blk, lanes);
     }
+}
+
+/// [`ForcePass::batched`] out of line, one function per kernel, for the
+/// baseline instruction set. Inlined into the step, the four methods'
+/// batched passes made one function so large that LLVM's loop passes took
+/// minutes over it; one call per block of eight elements costs nothing
+/// measurable.
+#[inline(never)]
+fn batched_baseline<
+    S: Sink,
+    K: LaneKernel,
+    const AVX2: bool,
+    const WITH_KV: bool,
+    const COMMIT: bool,
+>(
+    pass: &mut ForcePass<'_, S, AVX2>,
+    blk: &mut ElementBlock,
+    lanes: usize,
+) {
+    pass.batched::<K, WITH_KV, COMMIT>(blk, lanes);
 }
 
 /// Stiffness product `q += −K d` of the first `count` elements, with the
