@@ -135,7 +135,9 @@ pub use scene::{BuildOptions, Scene, StaticScene};
 pub use settings::{Settings, StepStats};
 #[cfg(feature = "statics")]
 pub use statics::{NewtonStats, StaticSettings};
-pub use storage::{ArrayStorage, Node, NodeEntry, NodeWork, PartsMut, SliceStorage, Storage};
+pub use storage::{
+    ArrayStorage, Node, NodeEntry, NodeWork, OwnedStorage, PartsMut, SliceStorage, Storage,
+};
 
 /// The README's code examples, compiled and run as doctests (they use the tool).
 #[cfg(all(doctest, feature = "tool"))]

@@ -326,6 +326,72 @@ impl Storage for SliceStorage<'_> {
     }
 }
 
+/// Storage in containers the caller owns and chooses, such as `Vec`s on a
+/// host, where capacities are known only at run time (a mesh read from a
+/// file). The core itself never allocates: [`OwnedStorage::with_capacity`]
+/// fills the containers through their `FromIterator`, in the caller's crate.
+/// The node and work containers should have the same length; the shorter one
+/// sets the node capacity.
+///
+/// ```
+/// # use corofem::{ElementBlock, Node, NodeEntry, NodeWork, OwnedStorage, Scene};
+/// type VecStorage = OwnedStorage<Vec<Node>, Vec<NodeWork>, Vec<ElementBlock>, Vec<NodeEntry>>;
+/// // Room for 100 nodes (each can be grabbed or loaded) and 300 tetrahedra.
+/// let scene = Scene::with_storage(VecStorage::with_capacity(100, 300));
+/// assert_eq!(scene.node_count(), 0);
+/// ```
+#[derive(Clone, Debug)]
+pub struct OwnedStorage<N, W, E, G> {
+    nodes: N,
+    work: W,
+    elems: E,
+    grabs: G,
+    loads: G,
+}
+
+impl<N, W, E, G> OwnedStorage<N, W, E, G>
+where
+    N: FromIterator<Node>,
+    W: FromIterator<NodeWork>,
+    E: FromIterator<ElementBlock>,
+    G: FromIterator<NodeEntry>,
+{
+    /// Room for `nodes` nodes, with a grab and a load slot for each, and
+    /// `elements` tetrahedra, every slot empty.
+    #[must_use]
+    pub fn with_capacity(nodes: usize, elements: usize) -> Self {
+        let blocks = crate::element_blocks(elements);
+        Self {
+            nodes: core::iter::repeat_n(Node::EMPTY, nodes).collect(),
+            work: core::iter::repeat_n(NodeWork::EMPTY, nodes).collect(),
+            elems: core::iter::repeat_n(ElementBlock::EMPTY, blocks).collect(),
+            grabs: core::iter::repeat_n(NodeEntry::EMPTY, nodes).collect(),
+            loads: core::iter::repeat_n(NodeEntry::EMPTY, nodes).collect(),
+        }
+    }
+}
+
+impl<N, W, E, G> Storage for OwnedStorage<N, W, E, G>
+where
+    N: AsRef<[Node]> + AsMut<[Node]>,
+    W: AsMut<[NodeWork]>,
+    E: AsRef<[ElementBlock]> + AsMut<[ElementBlock]>,
+    G: AsMut<[NodeEntry]>,
+{
+    fn parts(&self) -> (&[Node], &[ElementBlock]) {
+        (self.nodes.as_ref(), self.elems.as_ref())
+    }
+    fn parts_mut(&mut self) -> PartsMut<'_> {
+        PartsMut {
+            nodes: self.nodes.as_mut(),
+            work: self.work.as_mut(),
+            elems: self.elems.as_mut(),
+            grabs: self.grabs.as_mut(),
+            loads: self.loads.as_mut(),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

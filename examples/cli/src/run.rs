@@ -170,8 +170,10 @@ impl<'a> Sim<'a> {
     /// motion and the tool grab.
     fn build(spec: &'a SceneSpec, mesh: &CoreMesh) -> CliResult<Sim<'a>> {
         let file = &spec.file;
-        let mut scene =
-            HeapScene::with_storage(HeapStorage::new(mesh.nodes.len(), mesh.tets.len()));
+        let mut scene = HeapScene::with_storage(HeapStorage::with_capacity(
+            mesh.nodes.len(),
+            mesh.tets.len(),
+        ));
         let options = BuildOptions {
             reorient: spec.mesh.reorient,
         };

@@ -2,55 +2,21 @@
 //! read mesh to the core's input types — for host programs and tests whose
 //! meshes are only known at run time.
 
-use corofem::{element_blocks, ElementBlock, Node, NodeEntry, NodeWork, PartsMut, Scene, Storage};
+use corofem::{ElementBlock, Node, NodeEntry, NodeWork, OwnedStorage, Scene};
 
 use crate::Mesh;
 
-/// Scene storage in vectors.
-#[derive(Clone, Debug)]
-pub struct HeapStorage {
-    nodes: Vec<Node>,
-    work: Vec<NodeWork>,
-    elems: Vec<ElementBlock>,
-    /// Grab and load slots: one per node, so any node can be grabbed or loaded.
-    grabs: Vec<NodeEntry>,
-    loads: Vec<NodeEntry>,
-}
-
-impl HeapStorage {
-    /// Room for `nodes` nodes and `elems` tetrahedra.
-    pub fn new(nodes: usize, elems: usize) -> Self {
-        Self {
-            nodes: vec![Node::EMPTY; nodes],
-            work: vec![NodeWork::EMPTY; nodes],
-            grabs: vec![NodeEntry::EMPTY; nodes],
-            loads: vec![NodeEntry::EMPTY; nodes],
-            elems: vec![ElementBlock::EMPTY; element_blocks(elems)],
-        }
-    }
-}
-
-impl Storage for HeapStorage {
-    fn parts(&self) -> (&[Node], &[ElementBlock]) {
-        (&self.nodes, &self.elems)
-    }
-    fn parts_mut(&mut self) -> PartsMut<'_> {
-        PartsMut {
-            nodes: &mut self.nodes,
-            work: &mut self.work,
-            elems: &mut self.elems,
-            grabs: &mut self.grabs,
-            loads: &mut self.loads,
-        }
-    }
-}
+/// Scene storage in vectors, sized at run time: every node has a grab and
+/// a load slot, so any node can be grabbed or loaded
+/// ([`HeapStorage::with_capacity`]`(nodes, tets)`).
+pub type HeapStorage = OwnedStorage<Vec<Node>, Vec<NodeWork>, Vec<ElementBlock>, Vec<NodeEntry>>;
 
 /// A scene whose storage is on the heap.
 pub type HeapScene = Scene<HeapStorage>;
 
 /// An empty heap scene with room for exactly `nodes` nodes and `elems` tetrahedra.
 pub fn heap_scene(nodes: usize, elems: usize) -> HeapScene {
-    Scene::with_storage(HeapStorage::new(nodes, elems))
+    Scene::with_storage(HeapStorage::with_capacity(nodes, elems))
 }
 
 /// The mesh as the core takes it: f32 coordinates (m, after multiplying by

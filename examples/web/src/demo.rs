@@ -10,48 +10,13 @@
 use std::collections::HashMap;
 
 use corofem::{
-    BoxMesh, BuildOptions, ElementBlock, Material, Method, Node, NodeEntry, NodeWork, PartsMut,
-    Plane, Scene, Settings, Storage,
+    BoxMesh, BuildOptions, ElementBlock, Material, Method, Node, NodeEntry, NodeWork, OwnedStorage,
+    Plane, Scene, Settings,
 };
 
-/// Scene storage in vectors sized at run time (the body can come from a file).
-#[derive(Clone, Debug)]
-pub struct VecStorage {
-    nodes: Vec<Node>,
-    work: Vec<NodeWork>,
-    elems: Vec<ElementBlock>,
-    /// Grab and load slots: one per node, so any node can be grabbed or loaded.
-    grabs: Vec<NodeEntry>,
-    loads: Vec<NodeEntry>,
-}
-
-impl VecStorage {
-    /// Room for exactly `nodes` nodes and `elems` tetrahedra.
-    pub fn new(nodes: usize, elems: usize) -> Self {
-        Self {
-            nodes: vec![Node::EMPTY; nodes],
-            work: vec![NodeWork::EMPTY; nodes],
-            grabs: vec![NodeEntry::EMPTY; nodes],
-            loads: vec![NodeEntry::EMPTY; nodes],
-            elems: vec![ElementBlock::EMPTY; corofem::element_blocks(elems)],
-        }
-    }
-}
-
-impl Storage for VecStorage {
-    fn parts(&self) -> (&[Node], &[ElementBlock]) {
-        (&self.nodes, &self.elems)
-    }
-    fn parts_mut(&mut self) -> PartsMut<'_> {
-        PartsMut {
-            nodes: &mut self.nodes,
-            work: &mut self.work,
-            elems: &mut self.elems,
-            grabs: &mut self.grabs,
-            loads: &mut self.loads,
-        }
-    }
-}
+/// Scene storage in vectors sized at run time (the body can come from a
+/// file), with a grab and a load slot for every node.
+pub type VecStorage = OwnedStorage<Vec<Node>, Vec<NodeWork>, Vec<ElementBlock>, Vec<NodeEntry>>;
 
 /// A tetrahedral mesh in the core's input form.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -281,7 +246,7 @@ impl App {
             .iter()
             .map(|p| [p[0] + shift[0], p[1] + shift[1], p[2] + shift[2]])
             .collect();
-        let mut scene = Scene::with_storage(VecStorage::new(rest.len(), mesh.tets.len()));
+        let mut scene = Scene::with_storage(VecStorage::with_capacity(rest.len(), mesh.tets.len()));
         scene
             .set_settings(params.settings())
             .map_err(|e| e.to_string())?;
