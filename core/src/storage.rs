@@ -329,16 +329,24 @@ impl Storage for SliceStorage<'_> {
 /// Storage in containers the caller owns and chooses, such as `Vec`s on a
 /// host, where capacities are known only at run time (a mesh read from a
 /// file). The core itself never allocates: [`OwnedStorage::with_capacity`]
-/// fills the containers through their `FromIterator`, in the caller's crate.
-/// The node and work containers should have the same length; the shorter one
-/// sets the node capacity.
+/// fills the containers through their `FromIterator`, in the caller's crate,
+/// all node containers to the same length.
 ///
 /// ```
-/// # use corofem::{ElementBlock, Node, NodeEntry, NodeWork, OwnedStorage, Scene};
+/// # use corofem::{BoxMesh, BuildOptions, ElementBlock, Material, Node, NodeEntry, NodeWork, OwnedStorage, Scene};
 /// type VecStorage = OwnedStorage<Vec<Node>, Vec<NodeWork>, Vec<ElementBlock>, Vec<NodeEntry>>;
-/// // Room for 100 nodes (each can be grabbed or loaded) and 300 tetrahedra.
-/// let scene = Scene::with_storage(VecStorage::with_capacity(100, 300));
-/// assert_eq!(scene.node_count(), 0);
+/// // A 2×2×2-cell box (27 nodes, 48 tetrahedra), its size known at run time.
+/// let mesh = BoxMesh { size: [0.1; 3], cells: [2; 3], tets_per_cell: 6 };
+/// let mut nodes = vec![[0.0f32; 3]; mesh.node_count()];
+/// let mut tets = vec![[0u32; 4]; mesh.tet_count()];
+/// let (n, t) = mesh.generate(&mut nodes, &mut tets)?;
+/// // Room for exactly those nodes (each can be grabbed or loaded) and tetrahedra.
+/// let mut scene = Scene::with_storage(VecStorage::with_capacity(n, t));
+/// let material = Material { young: 1.0e5, poisson: 0.3, density: 1000.0 };
+/// scene.build(&nodes[..n], &tets[..t], &material, BuildOptions::default())?;
+/// scene.step()?;
+/// assert_eq!(scene.node_count(), n);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
 #[derive(Clone, Debug)]
 pub struct OwnedStorage<N, W, E, G> {
