@@ -1,6 +1,8 @@
 //! Element passes: gather the four nodes of each element, do the local maths,
 //! scatter-add the results into the nodes — in element order, so the sums are
-//! the same on every target.
+//! the same on every target. (Element order, here and in `crate::avx2`, is
+//! the order of the storage slots, an interleaving of the scene's elements
+//! that every target shares: `element::block::slot`.)
 
 #[cfg(any(feature = "qr", feature = "qr-rest-b"))]
 use crate::element::qr;

@@ -1,6 +1,6 @@
 //! The scene: a validated mesh, its material and state, and the public API.
 
-use crate::element::{element_blocks, qr, Element, ElementBlock, Method};
+use crate::element::{block_and_lane, element_blocks, qr, Element, ElementBlock, Method};
 use crate::error::{Error, StepError};
 use crate::lanes::LANES;
 use crate::material::{
@@ -200,11 +200,8 @@ impl<S: Storage> Scene<S> {
         if e >= self.hdr.n_elems {
             return None;
         }
-        self.store
-            .parts()
-            .1
-            .get(e / LANES)
-            .map(|b| b.get(e % LANES))
+        let (b, j) = block_and_lane(e, self.hdr.n_elems);
+        self.store.parts().1.get(b).map(|blk| blk.get(j))
     }
 
     /// Builds the scene from node positions (m) and tetrahedra (node indices),
@@ -309,7 +306,8 @@ impl<S: Storage> Scene<S> {
             *w = NodeWork::EMPTY;
         }
         for (e, tet) in tets.iter().enumerate() {
-            let Some(block) = elems.get_mut(e / LANES) else {
+            let (b, j) = block_and_lane(e, tets.len());
+            let Some(block) = elems.get_mut(b) else {
                 break; // capacity checked above
             };
             // Validated above: `oriented` cannot fail here.
@@ -327,7 +325,7 @@ impl<S: Storage> Scene<S> {
                 #[cfg(feature = "polar")]
                 rot: crate::element::polar::IDENTITY,
             };
-            block.set(e % LANES, &el);
+            block.set(j, &el);
             let quarter = material.density * six_v0 * (1.0 / 24.0);
             for i in t {
                 if let Some(n) = nodes.get_mut(i as usize) {
@@ -485,8 +483,9 @@ impl<S: Storage> Scene<S> {
         if !lame_finite(stiffness, per_young) {
             return Err(Error::InvalidParameter { name: "young" });
         }
-        if let Some(block) = self.view().elems.get_mut(e / LANES) {
-            block.set_stiffness(e % LANES, stiffness);
+        let (b, j) = block_and_lane(e, self.hdr.n_elems);
+        if let Some(block) = self.view().elems.get_mut(b) {
+            block.set_stiffness(j, stiffness);
         }
         Ok(())
     }
@@ -506,10 +505,11 @@ impl<S: Storage> Scene<S> {
     /// Writes Young's modulus `young` (Pa, checked) into every element.
     fn write_young_all(&mut self, young: f32) {
         let v = self.view();
-        for e in 0..v.n_elems {
-            if let Some(block) = v.elems.get_mut(e / LANES) {
-                let six_v0 = block.get(e % LANES).six_v0();
-                block.set_stiffness(e % LANES, element_stiffness(young, six_v0));
+        // Every slot, in storage order (which element is where is no matter).
+        for s in 0..v.n_elems {
+            if let Some(block) = v.elems.get_mut(s / LANES) {
+                let six_v0 = block.get(s % LANES).six_v0();
+                block.set_stiffness(s % LANES, element_stiffness(young, six_v0));
             }
         }
     }

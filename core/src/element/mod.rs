@@ -10,8 +10,8 @@ pub(crate) mod linear;
 pub(crate) mod polar;
 pub(crate) mod qr;
 
+pub(crate) use block::{block_and_lane, lane3, Batch};
 pub use block::{element_blocks, ElementBlock};
-pub(crate) use block::{lane3, Batch};
 
 use crate::math::{add, Real, Vec3};
 
