@@ -102,42 +102,40 @@ fn soft_liver_limit_of_qr_and_polar_recovery() {
     assert!(qr.finite);
 }
 
-/// 20 000 steps of random drags of the liver (the long run is 1 000 000):
-/// with QR, no refused step and everything finite. Its shape after the
-/// 10 s rest is printed, not asserted: QR can leave the liver tangled
-/// through its pins, at rest in another equilibrium (docs/reliability.md,
-/// finding 3). Over seeds 1–20 and 2005, 5 of 21 runs end tangled (shape
-/// error 0.18–0.95 of the diagonal, this seed not among them) with the
-/// element order of `block::slot`; 4 of 13 with the order before it, and 3
-/// of 21 with a trial order (this seed among them): which seeds tangle
-/// depends on the bits, how often does not.
-#[test]
-fn liver_soak_short() {
-    let Some(liver) = reliability::liver() else {
-        return;
-    };
-    let s = reliability::soak(&liver, Method::Qr, 20_000, 10_000, 2005);
-    eprintln!("{s:?}");
+/// 20 000 steps of random drags of the liver (the long run is 1 000 000)
+/// with `method`, checked for what every method must do: no refused step,
+/// everything finite. `None` without the shared meshes.
+fn short_soak(method: Method) -> Option<reliability::Soak> {
+    let liver = reliability::liver()?;
+    let s = reliability::soak(&liver, method, 20_000, 10_000, 2005);
+    eprintln!("{method:?}: {s:?}");
     assert!(s.finite, "{s:?}");
     assert_eq!(s.refused, 0, "{s:?}");
     assert!(s.checks >= 1, "{s:?}");
     assert!(s.drags >= 10, "{s:?}");
+    Some(s)
 }
 
-/// The same drags with the polar method: besides finite and never refused,
-/// the liver must hang again within 1% of its settled shape after the
-/// 10 s rest (polar came back at every check of the long soak, where QR
-/// stayed tangled: docs/reliability.md).
+/// The short soak with QR. Its shape after the 10 s rest is printed, not
+/// asserted: QR can leave the liver tangled through its pins, at rest in
+/// another equilibrium (docs/reliability.md, finding 3). Over seeds 1–20
+/// and 2005, 5 of 21 runs end tangled (shape error 0.18–0.95 of the
+/// diagonal, this seed not among them) with the element order of
+/// `block::slot`; 4 of 13 with the order before it, and 3 of 21 with a
+/// trial order (this seed among them): which seeds tangle depends on the
+/// bits, how often does not.
+#[test]
+fn liver_soak_short() {
+    short_soak(Method::Qr);
+}
+
+/// The same drags with the polar method, which must also bring the liver
+/// back within 1% of its settled shape after the 10 s rest (polar came back
+/// at every check of the long soak, where QR stayed tangled:
+/// docs/reliability.md).
 #[test]
 fn liver_soak_short_polar_recovers() {
-    let Some(liver) = reliability::liver() else {
-        return;
-    };
-    let s = reliability::soak(&liver, Method::Polar, 20_000, 10_000, 2005);
-    eprintln!("{s:?}");
-    assert!(s.finite, "{s:?}");
-    assert_eq!(s.refused, 0, "{s:?}");
-    assert!(s.checks >= 1, "{s:?}");
-    assert!(s.worst_recovery < RECOVERED, "{s:?}");
-    assert!(s.drags >= 10, "{s:?}");
+    if let Some(s) = short_soak(Method::Polar) {
+        assert!(s.worst_recovery < RECOVERED, "{s:?}");
+    }
 }
