@@ -107,10 +107,9 @@ fn gather_corners<T>(
     lanes: usize,
     mut put: impl FnMut(usize, usize, &T),
 ) -> [bool; LANES] {
-    let mut present = [false; LANES];
-    for p in present.iter_mut().take(lanes) {
-        *p = true;
-    }
+    // Compared lane by lane (written as a loop setting the first `lanes`
+    // flags, it was a call to `memset` per block).
+    let mut present: [bool; LANES] = core::array::from_fn(|j| j < lanes);
     for (k, ids) in blk.nodes.iter().enumerate() {
         for (j, (id, p)) in ids.iter().zip(present.iter_mut()).enumerate().take(lanes) {
             match slots.get(usize::from(*id)) {
