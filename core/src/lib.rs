@@ -76,9 +76,9 @@
 // No unsafe code, except the square root instruction (math.rs: SSE's
 // `sqrtss` intrinsic on x86, the FPU's `vsqrt.f32` behind `fpu-sqrt`), the
 // stiffness product in FPU assembly behind `fpu-product` (fpu_product.rs), the
-// AVX2 moves between node storage and lanes (avx2.rs, x86_64 only, 16-byte
-// loads and stores inside checked slots) and the calls into them, each
-// allowed where it is and nowhere else.
+// SSE2 and AVX2 moves between node storage and lanes (rows/, x86_64 only,
+// 16-byte loads and stores inside checked slots) and the calls into them,
+// each allowed where it is and nowhere else.
 #![deny(unsafe_code)]
 #![warn(missing_docs)]
 #![cfg_attr(docsrs, feature(doc_cfg))]
@@ -89,8 +89,6 @@
 // Cortex-M4F): the same code serves both, on purpose.
 #![allow(clippy::modulo_one)]
 
-#[cfg(target_arch = "x86_64")]
-mod avx2;
 mod cg;
 mod element;
 mod error;
@@ -99,6 +97,8 @@ mod material;
 mod math;
 mod mesh_gen;
 mod pass;
+#[cfg(target_arch = "x86_64")]
+mod rows;
 mod scene;
 mod settings;
 mod step;

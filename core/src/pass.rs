@@ -1,6 +1,6 @@
 //! Element passes: gather the four nodes of each element, do the local maths,
 //! scatter-add the results into the nodes — in element order, so the sums are
-//! the same on every target. (Element order, here and in `crate::avx2`, is
+//! the same on every target. (Element order, here and in `crate::rows`, is
 //! the order of the storage slots, an interleaving of the scene's elements
 //! that every target shares: `element::block::slot`.)
 
@@ -10,6 +10,8 @@ use crate::element::{self, hform, lane3, Batch, ElementBlock, ElementForces, Met
 use crate::lanes::LANES;
 use crate::math::Real;
 use crate::math::{add, neg, sub, Vec3};
+#[cfg(target_arch = "x86_64")]
+use crate::rows::{Avx2, Moves, Sse2};
 use crate::storage::{Node, NodeWork};
 
 /// Totals of a force pass.
@@ -28,8 +30,8 @@ pub(crate) trait Sink {
     fn add_force(&mut self, i: usize, f: Vec3);
     /// Adds node `i`'s stiffness product `kv` (`−K v`, N).
     fn add_kv(&mut self, i: usize, kv: Vec3);
-    /// The node work, if this sink is [`IntoWork`] (which the AVX2 pass then
-    /// writes directly, with the same sums).
+    /// The node work, if this sink is [`IntoWork`] (which the x86_64 passes
+    /// then write directly as rows, with the same sums).
     #[cfg(target_arch = "x86_64")]
     fn work(&mut self) -> Option<&mut [NodeWork]>;
 }
@@ -154,8 +156,9 @@ fn split(count: usize) -> (usize, usize) {
 ///
 /// `sink` receives each contribution, element after element, in element
 /// order, whether or not elements are batched. `per_young` is the body's
-/// [`lame_per_young`](crate::material::lame_per_young). With `AVX2` (x86_64
-/// only), whole blocks move node vectors with AVX2 (`crate::avx2`), same bits.
+/// [`lame_per_young`](crate::material::lame_per_young). On x86_64, whole
+/// blocks move node vectors as rows (`crate::rows`), with AVX2 if `AVX2`,
+/// else with SSE2; same bits.
 #[inline(always)]
 pub(crate) fn forces<const WITH_KV: bool, const COMMIT: bool, const AVX2: bool>(
     method: Method,
@@ -539,9 +542,9 @@ impl<S: Sink, const AVX2: bool> ForcePass<'_, S, AVX2> {
         }
     }
 
-    /// With `AVX2`, a whole block whose lanes all take the kernel's regular
-    /// path, written into the step's node work ([`IntoWork`]) with
-    /// `crate::avx2`: the same operations as [`Self::batched`] and the node
+    /// A whole block whose lanes all take the kernel's regular path, written
+    /// into the step's node work ([`IntoWork`]) with the row moves `M`
+    /// (`crate::rows`): the same operations as [`Self::batched`] and the node
     /// sums of its per-lane finish, in their order. Returns whether it did;
     /// if not (another sink, a node index out of range, an irregular lane),
     /// it has changed nothing, and [`Self::batched`] does the block.
@@ -553,12 +556,12 @@ impl<S: Sink, const AVX2: bool> ForcePass<'_, S, AVX2> {
     /// vectors live, and the pass was bound by its stores to the stack.
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    fn fast_block<K: LaneKernel, const WITH_KV: bool, const COMMIT: bool>(
+    fn fast_block<M: Moves, K: LaneKernel, const WITH_KV: bool, const COMMIT: bool>(
         &mut self,
         blk: &mut ElementBlock,
         lanes: usize,
     ) -> bool {
-        if !(AVX2 && lanes == LANES) {
+        if lanes != LANES {
             return false;
         }
         let nodes = self.nodes;
@@ -566,10 +569,10 @@ impl<S: Sink, const AVX2: bool> ForcePass<'_, S, AVX2> {
             return false;
         };
         #[allow(unsafe_code)]
-        // SAFETY: `AVX2` is true only in `step::step_avx2`, whose callers
-        // promise a CPU with AVX2.
+        // SAFETY: the callers of `fast_block::<M>` run on CPUs with `M`'s
+        // instruction set.
         let Some((at, [_rest, _du, cur])) =
-            (unsafe { crate::avx2::gather_edges(nodes, &blk.nodes) })
+            (unsafe { crate::rows::gather_edges::<M>(nodes, &blk.nodes) })
         else {
             return false;
         };
@@ -590,7 +593,7 @@ impl<S: Sink, const AVX2: bool> ForcePass<'_, S, AVX2> {
         #[allow(unsafe_code)]
         // SAFETY: as above.
         let done = unsafe {
-            crate::avx2::scatter_forces::<WITH_KV>(
+            crate::rows::scatter_forces::<M, WITH_KV>(
                 work,
                 nodes,
                 &at,
@@ -656,16 +659,17 @@ fn batched_avx2<
     blk: &mut ElementBlock,
     lanes: usize,
 ) {
-    if !pass.fast_block::<K, WITH_KV, COMMIT>(blk, lanes) {
+    if !pass.fast_block::<Avx2, K, WITH_KV, COMMIT>(blk, lanes) {
         pass.batched::<K, WITH_KV, COMMIT>(blk, lanes);
     }
 }
 
 /// [`ForcePass::batched`] out of line, one function per kernel, for the
-/// baseline instruction set. Inlined into the step, the four methods'
-/// batched passes made one function so large that LLVM's loop passes took
-/// minutes over it; one call per block of eight elements costs nothing
-/// measurable.
+/// baseline instruction set (on x86_64, whole blocks with the SSE2 row moves
+/// first, as `batched_avx2` does with AVX2). Inlined into the step, the
+/// four methods' batched passes made one function so large that LLVM's loop
+/// passes took minutes over it; one call per block of eight elements costs
+/// nothing measurable.
 #[inline(never)]
 fn batched_baseline<
     S: Sink,
@@ -678,6 +682,10 @@ fn batched_baseline<
     blk: &mut ElementBlock,
     lanes: usize,
 ) {
+    #[cfg(target_arch = "x86_64")]
+    if pass.fast_block::<Sse2, K, WITH_KV, COMMIT>(blk, lanes) {
+        return;
+    }
     pass.batched::<K, WITH_KV, COMMIT>(blk, lanes);
 }
 
@@ -770,9 +778,9 @@ pub(crate) fn stiffness_outside_step(
     stiffness::<false>(per_young, elems, count, work);
 }
 
-/// [`stiffness`] for the first `lanes` elements of one block; with `AVX2`
-/// (on x86_64 only), whole blocks move their node vectors with AVX2
-/// (`crate::avx2`), same bits.
+/// [`stiffness`] for the first `lanes` elements of one block; on x86_64,
+/// whole blocks move their node vectors as rows (`crate::rows`), with AVX2
+/// if `AVX2`, else with SSE2; same bits.
 #[inline(always)]
 fn product_block<const AVX2: bool>(
     per_young: [f32; 2],
@@ -781,11 +789,18 @@ fn product_block<const AVX2: bool>(
     work: &mut [NodeWork],
 ) {
     #[cfg(target_arch = "x86_64")]
-    if AVX2 && lanes == LANES {
+    if lanes == LANES {
         #[allow(unsafe_code)]
         // SAFETY: `AVX2` is true only in `step::step_avx2`, whose callers
-        // promise a CPU with AVX2.
-        if unsafe { crate::avx2::product_block(per_young, blk, work) } {
+        // promise a CPU with AVX2; every x86_64 CPU has SSE2.
+        let done = unsafe {
+            if AVX2 {
+                crate::rows::product_block_avx2(per_young, blk, work)
+            } else {
+                crate::rows::product_block::<crate::rows::Sse2>(per_young, blk, work)
+            }
+        };
+        if done {
             return;
         }
     }

@@ -690,8 +690,10 @@ impl<S: Storage> Scene<S> {
     /// those the attempted step computed.
     ///
     /// The step itself is compiled once, in this crate, for the target's
-    /// baseline instruction set. On x86_64, [`Scene::step_avx2`] is the same
-    /// step compiled for AVX2, for hosts that detect the CPU at run time.
+    /// baseline instruction set (on x86_64, SSE2, with node vectors moved in
+    /// and out of vector lanes by SSE2 shuffles). On x86_64,
+    /// [`Scene::step_avx2`] is the same step compiled for AVX2, for hosts that
+    /// detect the CPU at run time.
     pub fn step(&mut self) -> Result<StepStats, StepError> {
         crate::step::step(self.view())
     }
@@ -699,7 +701,7 @@ impl<S: Storage> Scene<S> {
     /// [`Scene::step`] compiled for AVX2 (x86_64 only), with the same bits:
     /// the same IEEE operations in the same order, never fused (the `fma`
     /// feature is not enabled), with node vectors moved in and out of vector
-    /// lanes by AVX2 shuffles.
+    /// lanes by AVX2 shuffles (256 bits wide where [`Scene::step`] uses 128).
     ///
     /// # Safety
     ///

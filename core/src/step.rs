@@ -41,7 +41,7 @@ pub(crate) fn step(v: View<'_>) -> Result<StepStats, StepError> {
 
 /// The step compiled for AVX2, with the bits of [`step`]: the element
 /// kernels and node loops are inlined into it (`#[inline(always)]` on x86)
-/// and the node vectors move in and out of lanes with `crate::avx2`. The
+/// and the node vectors move in and out of lanes with `crate::rows::Avx2`. The
 /// caller must run on a CPU with AVX2.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]

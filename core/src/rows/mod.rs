@@ -1,5 +1,7 @@
-//! AVX2 moves between node storage and lanes, for the step compiled for AVX2
-//! ([`Scene::step_avx2`](crate::Scene::step_avx2)).
+//! Moves between node storage and lanes on x86_64, for both compiled steps:
+//! with AVX2 ([`Scene::step_avx2`](crate::Scene::step_avx2), [`Avx2`]) and
+//! with the SSE2 every x86_64 CPU has ([`Scene::step`](crate::Scene::step),
+//! [`Sse2`]).
 //!
 //! The element kernels are the same generic code in either build; what the
 //! compiler cannot do well from safe code is moving node vectors in and out
@@ -9,9 +11,13 @@
 //! (docs/bench.md). Here a node's `[x, y, z]` moves as one 16-byte row:
 //!
 //! ```text
-//! gather  8 rows [x y z ·] of a corner  → 4×4 transposes in both halves → X, Y, Z (8 lanes)
+//! gather  8 rows [x y z ·] of a corner  → 4×4 transposes → X, Y, Z (8 lanes)
 //! scatter X, Y, Z of a corner → 8 rows [x y z −0] → row += into the node, element by element
 //! ```
+//!
+//! The two instruction sets differ only in the transposes ([`Moves`]): AVX2
+//! does both 4×4 blocks of a corner in one 256-bit register, SSE2 one after
+//! the other.
 //!
 //! A row is 16 bytes read from a 12-byte field: the fourth float is the next
 //! field of the same node (checked at compile time below; `d` is read as
@@ -21,52 +27,53 @@
 //! finite inputs, never a signalling NaN. (A blend that kept them cost 32
 //! of the product's ~300 vector micro-operations per block: 2–4 % of the
 //! step.) Sums are still made one node at a time in element order, with
-//! the same IEEE additions, so the bits are those of the baseline build.
+//! the same IEEE additions, so the bits are those of the targets without
+//! these moves (wasm32, Cortex-M).
 
 #![allow(unsafe_code)] // raw 16-byte loads and stores; the safety of each is argued below
 
-use core::arch::x86_64::{
-    __m128, __m256, _mm256_castps256_ps128, _mm256_cvtepu16_epi32, _mm256_extractf128_ps,
-    _mm256_mullo_epi32, _mm256_set1_epi32, _mm256_set1_ps, _mm256_set_m128, _mm256_shuffle_ps,
-    _mm256_storeu_si256, _mm256_unpackhi_ps, _mm256_unpacklo_ps, _mm_add_ps, _mm_loadu_ps,
-    _mm_loadu_si128, _mm_storeu_ps,
-};
+mod avx2;
+mod sse2;
+
+pub(crate) use avx2::Avx2;
+pub(crate) use sse2::Sse2;
+
+use core::arch::x86_64::{__m128, _mm_add_ps, _mm_loadu_ps, _mm_storeu_ps};
 use core::marker::PhantomData;
-use core::mem::{offset_of, size_of, transmute};
+use core::mem::{offset_of, size_of};
 
 use crate::element::{hform, Batch, ElementBlock};
-use crate::lanes::{Lanes, LANES};
+use crate::lanes::LANES;
 use crate::math::{add, sub, Real};
 use crate::pass::share_of_a;
 use crate::storage::{Node, NodeWork};
 
-/// Keeps the lane values `v` apart from the code around them, in
-/// registers: an empty `asm!` that takes and returns them, so LLVM cannot
-/// merge the transposes into the kernels. (Without any barrier it did, and
-/// computed the product's second half 4 lanes wide: 1 195 instructions per
-/// block instead of 630; `black_box` kept them apart through the stack.)
-/// Compiled for AVX, as `asm!` with `ymm` registers must be; inlined, like
-/// the helpers below, where it is called.
-#[inline]
-#[target_feature(enable = "avx")]
-fn fence<const N: usize>(v: &mut [[Batch; 3]; N]) {
-    for c in v.iter_mut() {
-        let [mut x, mut y, mut z] = c.map(vector);
-        // SAFETY: an empty template; the registers come back unchanged.
-        unsafe {
-            core::arch::asm!(
-                "/* {0} {1} {2} */",
-                inout(ymm_reg) x,
-                inout(ymm_reg) y,
-                inout(ymm_reg) z,
-                options(pure, nomem, nostack, preserves_flags)
-            );
-        }
-        *c = [lanes(x), lanes(y), lanes(z)];
-    }
-}
+const _: () = assert!(LANES == 8, "the row moves fill 8 lanes");
 
-const _: () = assert!(LANES == 8, "the AVX2 moves fill 8 lanes");
+/// An instruction set's transposes between node rows and lanes.
+///
+/// Every method is `unsafe` for one reason: the CPU must support the
+/// instruction set (always true of [`Sse2`] on x86_64). The methods are
+/// `#[inline(always)]`, so their intrinsics are compiled for the function
+/// they are inlined into (for [`Avx2`], one with `#[target_feature(enable =
+/// "avx2")]`).
+pub(crate) trait Moves {
+    /// `nodes[k][j] · size` for every corner `k` and lane `j`.
+    unsafe fn offsets(nodes: &[[u16; LANES]; 4], size: u32) -> [[u32; LANES]; 4];
+    /// The rows `row(j)` of lanes `j = 0..8`, `[x y z ·]` (or, with `lead`,
+    /// `[· x y z]`), as lanes `[X, Y, Z]`.
+    unsafe fn to_lanes(row: impl Fn(usize) -> __m128, lead: bool) -> [Batch; 3];
+    /// `[X, Y, Z]` as the rows `[xⱼ, yⱼ, zⱼ, −0]` of lanes `j = 0..8`
+    /// (`−0.0`: adding it leaves any other float's bits, `+0 + −0 = +0`).
+    unsafe fn to_rows(v: &[Batch; 3]) -> [__m128; LANES];
+    /// Keeps the lane values `v` apart from the code around them, in
+    /// registers: an empty `asm!` that takes and returns them, so LLVM
+    /// cannot merge the transposes into the kernels. (Without any barrier it
+    /// did, and computed the product's second half 4 lanes wide: 1 195
+    /// instructions per block instead of 630 with AVX2; `black_box` kept
+    /// them apart through the stack.)
+    unsafe fn fence<const N: usize>(v: &mut [[Batch; 3]; N]);
+}
 
 /// A `Vec3` field of a node slot, read and written as a 16-byte row: its
 /// byte offset, with the row inside the slot.
@@ -135,9 +142,9 @@ impl<T> Corners<T> {
     ///
     /// # Safety
     ///
-    /// The CPU must support AVX2.
+    /// The CPU must support `M`'s instruction set.
     #[inline(always)]
-    pub(crate) unsafe fn new(nodes: &[[u16; LANES]; 4], len: usize) -> Option<Self> {
+    pub(crate) unsafe fn new<M: Moves>(nodes: &[[u16; LANES]; 4], len: usize) -> Option<Self> {
         // `max` over all 32 indices, then one test (vectorised, no early exit).
         let mut max = 0u16;
         for c in nodes {
@@ -149,19 +156,8 @@ impl<T> Corners<T> {
             return None;
         }
         const { assert!(size_of::<T>() < 1024, "offsets must fit in u32") };
-        let size = _mm256_set1_epi32(size_of::<T>() as i32);
-        let mut offsets = [[0; LANES]; 4];
-        // Widened to 32 bits and multiplied in vector registers (written as
-        // scalars, LLVM made it 32 scalar multiplications in the force pass),
-        // then read back one by one where used.
-        for (o, c) in offsets.iter_mut().zip(nodes) {
-            // SAFETY: `c` and `o` are 16 and 32 bytes (8 `u16`, 8 `u32`);
-            // AVX2 is the caller's promise.
-            unsafe {
-                let ids = _mm256_cvtepu16_epi32(_mm_loadu_si128(c.as_ptr().cast()));
-                _mm256_storeu_si256(o.as_mut_ptr().cast(), _mm256_mullo_epi32(ids, size));
-            }
-        }
+        // SAFETY: the caller's.
+        let offsets = unsafe { M::offsets(nodes, size_of::<T>() as u32) };
         Some(Self {
             offsets,
             len,
@@ -199,12 +195,16 @@ fn opaque<T>(r: &T) -> &T {
 ///
 /// # Safety
 ///
-/// The CPU must support AVX2. (This and the other helpers are
-/// `#[inline(always)]` functions rather than `#[target_feature]` ones, which
-/// cannot be forced inline: inlined into the `#[target_feature]` entry points
-/// below, their intrinsics are compiled for AVX2.)
+/// The CPU must support `M`'s instruction set. (This and the other helpers
+/// are `#[inline(always)]` functions rather than `#[target_feature]` ones,
+/// which cannot be forced inline: inlined into the `#[target_feature]` entry
+/// points, their intrinsics are compiled for AVX2.)
 #[inline(always)]
-unsafe fn gather<R: Row>(slots: &[R::Slot], corners: &Corners<R::Slot>, k: usize) -> [Batch; 3] {
+unsafe fn gather<M: Moves, R: Row>(
+    slots: &[R::Slot],
+    corners: &Corners<R::Slot>,
+    k: usize,
+) -> [Batch; 3] {
     let (Some(offsets), true) = (corners.table().get(k), slots.len() >= corners.len) else {
         return [Batch::splat(0.0); 3];
     };
@@ -214,29 +214,8 @@ unsafe fn gather<R: Row>(slots: &[R::Slot], corners: &Corners<R::Slot>, k: usize
     // `R::OFFSET` lie inside the slot (`row_fits`); `loadu` is unaligned.
     let row =
         |j: usize| unsafe { _mm_loadu_ps(base.add(offsets[j] as usize + R::OFFSET).cast::<f32>()) };
-    // Lanes j and j + 4 share a register: t_j = [row_j | row_{j+4}].
-    let t0 = _mm256_set_m128(row(4), row(0));
-    let t1 = _mm256_set_m128(row(5), row(1));
-    let t2 = _mm256_set_m128(row(6), row(2));
-    let t3 = _mm256_set_m128(row(7), row(3));
-    // 4×4 transpose in each half.
-    let a = _mm256_unpacklo_ps(t0, t1); // x0 x1 y0 y1 | x4 x5 y4 y5
-    let b = _mm256_unpacklo_ps(t2, t3); // x2 x3 y2 y3 | x6 x7 y6 y7
-    let c = _mm256_unpackhi_ps(t0, t1); // z0 z1 ·  ·  | z4 z5 ·  ·
-    let d = _mm256_unpackhi_ps(t2, t3); // z2 z3 ·  ·  | z6 z7 ·  ·
-    if R::LEAD {
-        // Rows [· x y z]: a, b hold · and x, c, d hold y and z.
-        return [
-            lanes(_mm256_shuffle_ps::<0xEE>(a, b)),
-            lanes(_mm256_shuffle_ps::<0x44>(c, d)),
-            lanes(_mm256_shuffle_ps::<0xEE>(c, d)),
-        ];
-    }
-    [
-        lanes(_mm256_shuffle_ps::<0x44>(a, b)), // x0 x1 x2 x3 | x4 x5 x6 x7
-        lanes(_mm256_shuffle_ps::<0xEE>(a, b)), // y0 .. y7
-        lanes(_mm256_shuffle_ps::<0x44>(c, d)), // z0 .. z7
-    ]
+    // SAFETY: the caller's.
+    unsafe { M::to_lanes(row, R::LEAD) }
 }
 
 /// [`gather`] of the four corners: `[corner][component]`.
@@ -245,46 +224,16 @@ unsafe fn gather<R: Row>(slots: &[R::Slot], corners: &Corners<R::Slot>, k: usize
 ///
 /// The CPU must support AVX2.
 #[inline(always)]
-unsafe fn gather4<R: Row>(slots: &[R::Slot], c: &Corners<R::Slot>) -> [[Batch; 3]; 4] {
+unsafe fn gather4<M: Moves, R: Row>(slots: &[R::Slot], c: &Corners<R::Slot>) -> [[Batch; 3]; 4] {
     // SAFETY: the caller's.
     unsafe {
         [
-            gather::<R>(slots, c, 0),
-            gather::<R>(slots, c, 1),
-            gather::<R>(slots, c, 2),
-            gather::<R>(slots, c, 3),
+            gather::<M, R>(slots, c, 0),
+            gather::<M, R>(slots, c, 1),
+            gather::<M, R>(slots, c, 2),
+            gather::<M, R>(slots, c, 3),
         ]
     }
-}
-
-/// `[X, Y, Z]` (8 lanes) as the rows `[xⱼ, yⱼ, zⱼ, −0]` of lanes `j = 0..8`.
-///
-/// # Safety
-///
-/// The CPU must support AVX2.
-#[inline(always)]
-unsafe fn rows(v: &[Batch; 3]) -> [__m128; LANES] {
-    let [x, y, z] = v.map(vector);
-    // −0.0: adding it leaves any other float's bits (+0 + −0 = +0).
-    let zero = _mm256_set1_ps(-0.0);
-    let a = _mm256_unpacklo_ps(x, y); // x0 y0 x1 y1 | x4 y4 x5 y5
-    let b = _mm256_unpackhi_ps(x, y); // x2 y2 x3 y3 | x6 y6 x7 y7
-    let c = _mm256_unpacklo_ps(z, zero); // z0 −0 z1 −0 | z4 −0 z5 −0
-    let d = _mm256_unpackhi_ps(z, zero); // z2 −0 z3 −0 | z6 −0 z7 −0
-    let r04 = _mm256_shuffle_ps::<0x44>(a, c); // x0 y0 z0 −0 | x4 y4 z4 −0
-    let r15 = _mm256_shuffle_ps::<0xEE>(a, c);
-    let r26 = _mm256_shuffle_ps::<0x44>(b, d);
-    let r37 = _mm256_shuffle_ps::<0xEE>(b, d);
-    [
-        _mm256_castps256_ps128(r04),
-        _mm256_castps256_ps128(r15),
-        _mm256_castps256_ps128(r26),
-        _mm256_castps256_ps128(r37),
-        _mm256_extractf128_ps::<1>(r04),
-        _mm256_extractf128_ps::<1>(r15),
-        _mm256_extractf128_ps::<1>(r26),
-        _mm256_extractf128_ps::<1>(r37),
-    ]
 }
 
 /// `slot.R += [x, y, z]` for the rows `rows[k][j] = [x, y, z, −0]` of the
@@ -292,17 +241,9 @@ unsafe fn rows(v: &[Batch; 3]) -> [__m128; LANES] {
 /// in each: the sums the scalar code makes, in its order, each `field +
 /// value`; the fourth float (the next field) gets `−0.0` added, which
 /// leaves its bits (see the module's documentation). Nothing if `slots` is
-/// shorter than `corners` needs.
-///
-/// # Safety
-///
-/// The CPU must support AVX2.
+/// shorter than `corners` needs. (SSE only: every x86_64 CPU has it.)
 #[inline(always)]
-unsafe fn scatter<R: Row>(
-    slots: &mut [R::Slot],
-    corners: &Corners<R::Slot>,
-    rows: &[[__m128; LANES]; 4],
-) {
+fn scatter<R: Row>(slots: &mut [R::Slot], corners: &Corners<R::Slot>, rows: &[[__m128; LANES]; 4]) {
     if slots.len() < corners.len {
         return;
     }
@@ -325,9 +266,9 @@ unsafe fn scatter<R: Row>(
 ///
 /// # Safety
 ///
-/// The CPU must support AVX2.
+/// The CPU must support `M`'s instruction set.
 #[inline(always)]
-unsafe fn add_to_nodes<R: Row<Slot = NodeWork>>(
+unsafe fn add_to_nodes<M: Moves, R: Row<Slot = NodeWork>>(
     work: &mut [NodeWork],
     c: &Corners<NodeWork>,
     f: &[[Batch; 3]; 3],
@@ -337,55 +278,59 @@ unsafe fn add_to_nodes<R: Row<Slot = NodeWork>>(
     let mut fa = [share_of_a(f), f[0], f[1], f[2]];
     // SAFETY: the caller's. (Not `array::map`: it was not inlined.)
     unsafe {
-        fence(&mut fa);
-        let r = [rows(&fa[0]), rows(&fa[1]), rows(&fa[2]), rows(&fa[3])];
+        M::fence(&mut fa);
+        let r = [
+            M::to_rows(&fa[0]),
+            M::to_rows(&fa[1]),
+            M::to_rows(&fa[2]),
+            M::to_rows(&fa[3]),
+        ];
         scatter::<R>(work, c, &r);
     }
 }
 
-/// An AVX register as lanes.
-#[inline(always)]
-fn lanes(v: __m256) -> Batch {
-    // SAFETY: both are 32 bytes of 8 `f32`s in order; every bit pattern is
-    // valid for both.
-    Lanes(unsafe { transmute::<__m256, [f32; LANES]>(v) })
-}
-
-/// Lanes as an AVX register.
-#[inline(always)]
-fn vector(v: Batch) -> __m256 {
-    // SAFETY: as in `lanes`.
-    unsafe { transmute::<[f32; LANES], __m256>(v.0) }
-}
-
 /// The stiffness product `q += −K d` of one whole block (see
-/// `pass::stiffness`): the same kernel as the baseline build, with the
-/// corners' `d` gathered and the results scattered as rows. Returns `false`,
-/// having done nothing, if a node index is out of range (impossible after
-/// `build`; the caller then takes the baseline path, which skips such
-/// elements). The caller must run on a CPU with AVX2.
-#[inline]
-#[target_feature(enable = "avx2")]
-pub(crate) fn product_block(
+/// `pass::stiffness`): the same kernel as on targets without these moves,
+/// with the corners' `d` gathered and the results scattered as rows.
+/// Returns `false`, having done nothing, if a node index is out of range
+/// (impossible after `build`; the caller then takes the general path, which
+/// skips such elements).
+///
+/// # Safety
+///
+/// The CPU must support `M`'s instruction set.
+#[inline(always)]
+pub(crate) unsafe fn product_block<M: Moves>(
     per_young: [f32; 2],
     blk: &ElementBlock,
     work: &mut [NodeWork],
 ) -> bool {
-    // SAFETY: this function runs only on CPUs with AVX2.
-    let Some(corners) = (unsafe { Corners::<NodeWork>::new(&blk.nodes, work.len()) }) else {
+    // SAFETY (of every call below): the caller's.
+    let Some(corners) = (unsafe { Corners::<NodeWork>::new::<M>(&blk.nodes, work.len()) }) else {
         return false;
     };
-    // SAFETY (of the helpers): this function runs only on CPUs with AVX2.
-    let mut x = unsafe { gather4::<WorkD>(work, &corners) };
-    fence(&mut x);
+    let mut x = unsafe { gather4::<M, WorkD>(work, &corners) };
+    unsafe { M::fence(&mut x) };
     let lame = crate::material::lame(blk.stiffness, per_young);
     let s = hform::product_stress(&x, &blk.grad, lame);
     // The gradients again for the forces: kept in registers from the
     // stress, LLVM spilled them.
     let kd = hform::product_forces(&s, opaque(&blk.grad));
-    // SAFETY: as above.
-    unsafe { add_to_nodes::<WorkQ>(work, &corners, &kd) };
+    unsafe { add_to_nodes::<M, WorkQ>(work, &corners, &kd) };
     true
+}
+
+/// [`product_block`] with AVX2, out of line from the step's CG loop. The
+/// caller must run on a CPU with AVX2.
+#[inline]
+#[target_feature(enable = "avx2")]
+pub(crate) fn product_block_avx2(
+    per_young: [f32; 2],
+    blk: &ElementBlock,
+    work: &mut [NodeWork],
+) -> bool {
+    // SAFETY: this function runs only on CPUs with AVX2.
+    unsafe { product_block::<Avx2>(per_young, blk, work) }
 }
 
 /// Three edge vectors in lanes, `[edge][component]`.
@@ -399,27 +344,27 @@ type Edges3 = [[Batch; 3]; 3];
 ///
 /// # Safety
 ///
-/// The CPU must support AVX2. (Inlined into the force pass compiled for
-/// AVX2, as [`scatter_forces`] is.)
+/// The CPU must support `M`'s instruction set. (Inlined into the force pass,
+/// as [`scatter_forces`] is.)
 #[inline(always)]
-pub(crate) unsafe fn gather_edges(
+pub(crate) unsafe fn gather_edges<M: Moves>(
     nodes: &[Node],
     ids: &[[u16; LANES]; 4],
 ) -> Option<(Corners<Node>, [Edges3; 3])> {
     // SAFETY (of every call below): the caller's.
-    let c = unsafe { Corners::<Node>::new(ids, nodes.len()) }?;
+    let c = unsafe { Corners::<Node>::new::<M>(ids, nodes.len()) }?;
     let mut a = unsafe {
         [
-            gather::<NodeX0>(nodes, &c, 0),
-            gather::<NodeU>(nodes, &c, 0),
+            gather::<M, NodeX0>(nodes, &c, 0),
+            gather::<M, NodeU>(nodes, &c, 0),
         ]
     };
-    unsafe { fence(&mut a) };
+    unsafe { M::fence(&mut a) };
     let [b, cc, d] = unsafe {
         [
-            edge(nodes, &c, 1, &a),
-            edge(nodes, &c, 2, &a),
-            edge(nodes, &c, 3, &a),
+            edge::<M>(nodes, &c, 1, &a),
+            edge::<M>(nodes, &c, 2, &a),
+            edge::<M>(nodes, &c, 3, &a),
         ]
     };
     let edges = [
@@ -435,18 +380,23 @@ pub(crate) unsafe fn gather_edges(
 ///
 /// # Safety
 ///
-/// The CPU must support AVX2.
+/// The CPU must support `M`'s instruction set.
 #[inline(always)]
-unsafe fn edge(
+unsafe fn edge<M: Moves>(
     nodes: &[Node],
     c: &Corners<Node>,
     k: usize,
     a: &[[Batch; 3]; 2],
 ) -> [[Batch; 3]; 3] {
     // SAFETY: the caller's.
-    let mut p = unsafe { [gather::<NodeX0>(nodes, c, k), gather::<NodeU>(nodes, c, k)] };
+    let mut p = unsafe {
+        [
+            gather::<M, NodeX0>(nodes, c, k),
+            gather::<M, NodeU>(nodes, c, k),
+        ]
+    };
     // SAFETY: as above.
-    unsafe { fence(&mut p) };
+    unsafe { M::fence(&mut p) };
     let (rest, du) = (sub(p[0], a[0]), sub(p[1], a[1]));
     [rest, du, add(rest, du)]
 }
@@ -463,12 +413,13 @@ unsafe fn edge(
 ///
 /// # Safety
 ///
-/// The CPU must support AVX2. (Not a `#[target_feature]` function but one
-/// inlined into the force pass compiled for AVX2: with every method built,
+/// The CPU must support `M`'s instruction set. (Not a `#[target_feature]`
+/// function but one inlined into the force pass compiled for AVX2: with
+/// every method built,
 /// LLVM left a `#[target_feature]` one out of line, called from each
 /// method's pass, and the forces and gradients went through memory.)
 #[inline(always)]
-pub(crate) unsafe fn scatter_forces<const WITH_KV: bool>(
+pub(crate) unsafe fn scatter_forces<M: Moves, const WITH_KV: bool>(
     work: &mut [NodeWork],
     nodes: &[Node],
     at: &Corners<Node>,
@@ -478,15 +429,15 @@ pub(crate) unsafe fn scatter_forces<const WITH_KV: bool>(
     lame: [Batch; 2],
 ) -> bool {
     // SAFETY (of every call below): the caller's.
-    let Some(c) = (unsafe { Corners::<NodeWork>::new(ids, work.len()) }) else {
+    let Some(c) = (unsafe { Corners::<NodeWork>::new::<M>(ids, work.len()) }) else {
         return false;
     };
-    unsafe { add_to_nodes::<WorkR>(work, &c, f) };
+    unsafe { add_to_nodes::<M, WorkR>(work, &c, f) };
     if WITH_KV {
-        let mut vel = unsafe { gather4::<NodeV>(nodes, at) };
-        unsafe { fence(&mut vel) };
+        let mut vel = unsafe { gather4::<M, NodeV>(nodes, at) };
+        unsafe { M::fence(&mut vel) };
         let kv = hform::stiffness_product(&vel, grad, lame);
-        unsafe { add_to_nodes::<WorkQ>(work, &c, &kv) };
+        unsafe { add_to_nodes::<M, WorkQ>(work, &c, &kv) };
     }
     true
 }
