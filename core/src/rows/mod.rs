@@ -441,3 +441,33 @@ pub(crate) unsafe fn scatter_forces<M: Moves, const WITH_KV: bool>(
     }
     true
 }
+
+#[cfg(test)]
+mod tests {
+    extern crate std;
+
+    use super::*;
+
+    /// The node offsets of both instruction sets are `index · size` for
+    /// every `u16` index, the largest included (SSE2 forms them from 16-bit
+    /// halves, where an index ≥ 2¹⁵ would go wrong with a signed multiply).
+    #[test]
+    fn offsets_are_index_times_size_for_every_u16() {
+        let mut nodes = [[0u16; LANES]; 4];
+        let picks: [u16; 11] = [
+            0, 1, 2, 255, 256, 4_095, 32_767, 32_768, 40_000, 65_534, 65_535,
+        ];
+        for (n, id) in nodes.iter_mut().flatten().enumerate() {
+            *id = picks[n % picks.len()].wrapping_add((n / picks.len()) as u16 * 7);
+        }
+        for size in [4, 44, 52, 1023] {
+            let expect = nodes.map(|c| c.map(|i| u32::from(i) * size));
+            // SAFETY: every x86_64 CPU has SSE2.
+            assert_eq!(unsafe { Sse2::offsets(&nodes, size) }, expect);
+            if std::is_x86_feature_detected!("avx2") {
+                // SAFETY: checked just above.
+                assert_eq!(unsafe { Avx2::offsets(&nodes, size) }, expect);
+            }
+        }
+    }
+}
