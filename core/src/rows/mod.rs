@@ -155,6 +155,7 @@ impl<T> Corners<T> {
         if usize::from(max) >= len {
             return None;
         }
+        // (Below 2¹⁶ too, as `Sse2::offsets`' 16-bit multiply needs.)
         const { assert!(size_of::<T>() < 1024, "offsets must fit in u32") };
         // SAFETY: the caller's.
         let offsets = unsafe { M::offsets(nodes, size_of::<T>() as u32) };
@@ -197,8 +198,8 @@ fn opaque<T>(r: &T) -> &T {
 ///
 /// The CPU must support `M`'s instruction set. (This and the other helpers
 /// are `#[inline(always)]` functions rather than `#[target_feature]` ones,
-/// which cannot be forced inline: inlined into the `#[target_feature]` entry
-/// points, their intrinsics are compiled for AVX2.)
+/// which cannot be forced inline: their intrinsics are compiled for the
+/// function they are inlined into, the AVX2 step's or the baseline's.)
 #[inline(always)]
 unsafe fn gather<M: Moves, R: Row>(
     slots: &[R::Slot],
@@ -222,7 +223,7 @@ unsafe fn gather<M: Moves, R: Row>(
 ///
 /// # Safety
 ///
-/// The CPU must support AVX2.
+/// The CPU must support `M`'s instruction set.
 #[inline(always)]
 unsafe fn gather4<M: Moves, R: Row>(slots: &[R::Slot], c: &Corners<R::Slot>) -> [[Batch; 3]; 4] {
     // SAFETY: the caller's.
@@ -415,9 +416,9 @@ unsafe fn edge<M: Moves>(
 ///
 /// The CPU must support `M`'s instruction set. (Not a `#[target_feature]`
 /// function but one inlined into the force pass compiled for AVX2: with
-/// every method built,
-/// LLVM left a `#[target_feature]` one out of line, called from each
-/// method's pass, and the forces and gradients went through memory.)
+/// every method built, LLVM left a `#[target_feature]` one out of line,
+/// called from each method's pass, and the forces and gradients went
+/// through memory.)
 #[inline(always)]
 pub(crate) unsafe fn scatter_forces<M: Moves, const WITH_KV: bool>(
     work: &mut [NodeWork],

@@ -21,7 +21,8 @@ pub(crate) struct Sse2;
 impl Moves for Sse2 {
     #[inline(always)]
     unsafe fn offsets(nodes: &[[u16; LANES]; 4], size: u32) -> [[u32; LANES]; 4] {
-        // `size` < 1024 (`Corners::new`), so it fits 16 bits, and a 16 × 16
+        // `size` < 1024 (`Corners::new`), so it fits 16 bits (its `i16` cast
+        // keeps the bits; `pmulhuw` reads them unsigned), and a 16 × 16
         // bit product fits 32: its low and high halves (`pmullw`, `pmulhuw`)
         // interleaved are the 32-bit products. (Written as scalars, LLVM
         // made it 32 `pextrw` + `imul` + store per block.)
