@@ -797,7 +797,7 @@ fn product_block<const AVX2: bool>(
             if AVX2 {
                 crate::rows::product_block_avx2(per_young, blk, work)
             } else {
-                crate::rows::product_block::<Sse2>(per_young, blk, work)
+                crate::rows::product_block_sse2(per_young, blk, work)
             }
         };
         if done {

@@ -20,18 +20,40 @@ use crate::math::{sub, Real};
 /// A symmetric 3×3 stress `[sxx, syy, szz, sxy, syz, szx]` (scaled as above).
 pub(crate) type Sym<T = f32> = [T; 6];
 
+/// Where a kernel reads the gradients `g_b, g_c, g_d` from: an array, or
+/// (the baseline x86_64 step, `crate::rows`) half of a block's lanes read
+/// afresh from memory at each use, so that none is kept in a register.
+pub(crate) trait Grads<T> {
+    /// The gradient of node `i` (`b, c, d` for 0, 1, 2).
+    fn at(&self, i: usize) -> [T; 3];
+}
+
+impl<T: Copy> Grads<T> for [[T; 3]; 3] {
+    #[inline(always)]
+    fn at(&self, i: usize) -> [T; 3] {
+        self[i]
+    }
+}
+
 /// `H = Σᵢ dᵢ gᵢᵀ` for the three edge vectors `d` and gradients `g` (rows of H
 /// are components of `d`).
 #[inline(always)]
 #[must_use]
-pub(crate) fn grad_h<T: Real>(d: &[[T; 3]; 3], g: &[[T; 3]; 3]) -> [[T; 3]; 3] {
-    let mut h = [[T::splat(0.0); 3]; 3];
-    for (r, row) in h.iter_mut().enumerate() {
-        for (c, hrc) in row.iter_mut().enumerate() {
-            *hrc = d[0][r] * g[0][c] + d[1][r] * g[1][c] + d[2][r] * g[2][c];
-        }
-    }
-    h
+pub(crate) fn grad_h<T: Real>(d: &[[T; 3]; 3], g: &impl Grads<T>) -> [[T; 3]; 3] {
+    // Written out, not as loops: with `g` read from memory at each use, LLVM
+    // kept a loop over `r` and went through the stack.
+    let e = |r, c| h_entry(d, g, r, c);
+    [
+        [e(0, 0), e(0, 1), e(0, 2)],
+        [e(1, 0), e(1, 1), e(1, 2)],
+        [e(2, 0), e(2, 1), e(2, 2)],
+    ]
+}
+
+/// `H[r][c]` of [`grad_h`].
+#[inline(always)]
+fn h_entry<T: Real>(d: &[[T; 3]; 3], g: &impl Grads<T>, r: usize, c: usize) -> T {
+    d[0][r] * g.at(0)[c] + d[1][r] * g.at(1)[c] + d[2][r] * g.at(2)[c]
 }
 
 /// Isotropic stress of the symmetric part of `H`:
@@ -94,7 +116,7 @@ pub(crate) fn stiffness_product<T: Real>(
 /// The stress of [`stiffness_product`]: `σ` of the node vectors `x`.
 #[inline(always)]
 #[must_use]
-pub(crate) fn product_stress<T: Real>(x: &[[T; 3]; 4], g: &[[T; 3]; 3], lame: [T; 2]) -> Sym<T> {
+pub(crate) fn product_stress<T: Real>(x: &[[T; 3]; 4], g: &impl Grads<T>, lame: [T; 2]) -> Sym<T> {
     let d = [sub(x[1], x[0]), sub(x[2], x[0]), sub(x[3], x[0])];
     stress(&grad_h(&d, g), lame)
 }
@@ -103,10 +125,10 @@ pub(crate) fn product_stress<T: Real>(x: &[[T; 3]; 4], g: &[[T; 3]; 3], lame: [T
 /// `b, c, d`.
 #[inline(always)]
 #[must_use]
-pub(crate) fn product_forces<T: Real>(s: &Sym<T>, g: &[[T; 3]; 3]) -> [[T; 3]; 3] {
+pub(crate) fn product_forces<T: Real>(s: &Sym<T>, g: &impl Grads<T>) -> [[T; 3]; 3] {
     [
-        neg_stress_times(s, g[0]),
-        neg_stress_times(s, g[1]),
-        neg_stress_times(s, g[2]),
+        neg_stress_times(s, g.at(0)),
+        neg_stress_times(s, g.at(1)),
+        neg_stress_times(s, g.at(2)),
     ]
 }

@@ -36,7 +36,7 @@ mod avx2;
 mod sse2;
 
 pub(crate) use avx2::Avx2;
-pub(crate) use sse2::Sse2;
+pub(crate) use sse2::{product_block as product_block_sse2, Sse2};
 
 use core::arch::x86_64::{__m128, _mm_add_ps, _mm_loadu_ps, _mm_storeu_ps};
 use core::marker::PhantomData;
@@ -166,6 +166,28 @@ impl<T> Corners<T> {
         })
     }
 
+    /// The row `R` of lane `j` of corner `k` in `slots`, as a function of
+    /// `j` (which must be below `LANES`); `None` if `slots` is shorter than
+    /// the corners need.
+    #[inline(always)]
+    fn loader<'a, R: Row<Slot = T>>(
+        &'a self,
+        slots: &'a [T],
+        k: usize,
+    ) -> Option<impl Fn(usize) -> __m128 + 'a> {
+        let (Some(offsets), true) = (self.table().get(k), slots.len() >= self.len) else {
+            return None;
+        };
+        let base = slots.as_ptr().cast::<u8>();
+        // SAFETY: every offset is `i · size_of::<T>()` with `i < self.len
+        // ≤ slots.len()` (`Corners::new`, checked above), and the 16 bytes at
+        // `R::OFFSET` lie inside the slot (`row_fits`); `loadu` is unaligned;
+        // SSE is part of x86_64.
+        Some(move |j: usize| unsafe {
+            _mm_loadu_ps(base.add(offsets[j] as usize + R::OFFSET).cast::<f32>())
+        })
+    }
+
     /// The offsets, read from memory where used ([`opaque`]): not taken
     /// from the vector registers they were computed in (with `vpextrd`, two
     /// micro-operations on the vector ports each, which the product is
@@ -206,15 +228,9 @@ unsafe fn gather<M: Moves, R: Row>(
     corners: &Corners<R::Slot>,
     k: usize,
 ) -> [Batch; 3] {
-    let (Some(offsets), true) = (corners.table().get(k), slots.len() >= corners.len) else {
+    let Some(row) = corners.loader::<R>(slots, k) else {
         return [Batch::splat(0.0); 3];
     };
-    let base = slots.as_ptr().cast::<u8>();
-    // SAFETY: every offset is `i · size_of::<Slot>()` with `i < corners.len
-    // ≤ slots.len()` (`Corners::new`, checked above), and the 16 bytes at
-    // `R::OFFSET` lie inside the slot (`row_fits`); `loadu` is unaligned.
-    let row =
-        |j: usize| unsafe { _mm_loadu_ps(base.add(offsets[j] as usize + R::OFFSET).cast::<f32>()) };
     // SAFETY: the caller's.
     unsafe { M::to_lanes(row, R::LEAD) }
 }
@@ -238,24 +254,32 @@ unsafe fn gather4<M: Moves, R: Row>(slots: &[R::Slot], c: &Corners<R::Slot>) -> 
 }
 
 /// `slot.R += [x, y, z]` for the rows `rows[k][j] = [x, y, z, −0]` of the
-/// nodes of `corners`, lane after lane (element order), corners `a, b, c, d`
+/// nodes of `corners` in lanes `first + j`, lane after lane (element order), corners `a, b, c, d`
 /// in each: the sums the scalar code makes, in its order, each `field +
 /// value`; the fourth float (the next field) gets `−0.0` added, which
 /// leaves its bits (see the module's documentation). Nothing if `slots` is
 /// shorter than `corners` needs. (SSE only: every x86_64 CPU has it.)
 #[inline(always)]
-fn scatter<R: Row>(slots: &mut [R::Slot], corners: &Corners<R::Slot>, rows: &[[__m128; LANES]; 4]) {
+fn scatter<R: Row, const N: usize>(
+    slots: &mut [R::Slot],
+    corners: &Corners<R::Slot>,
+    first: usize,
+    rows: &[[__m128; N]; 4],
+) {
     if slots.len() < corners.len {
         return;
     }
     let base = slots.as_mut_ptr().cast::<u8>();
-    for j in 0..LANES {
+    for j in 0..N {
         for (offsets, rk) in corners.table().iter().zip(rows) {
+            let (Some(&at), Some(&v)) = (offsets.get(first + j), rk.get(j)) else {
+                continue;
+            };
             // SAFETY: as in `gather`; `slots` is borrowed mutably.
             unsafe {
-                let p = base.add(offsets[j] as usize + R::OFFSET).cast::<f32>();
+                let p = base.add(at as usize + R::OFFSET).cast::<f32>();
                 let old = _mm_loadu_ps(p);
-                _mm_storeu_ps(p, _mm_add_ps(old, rk[j]));
+                _mm_storeu_ps(p, _mm_add_ps(old, v));
             }
         }
     }
@@ -286,7 +310,7 @@ unsafe fn add_to_nodes<M: Moves, R: Row<Slot = NodeWork>>(
             M::to_rows(&fa[2]),
             M::to_rows(&fa[3]),
         ];
-        scatter::<R>(work, c, &r);
+        scatter::<R, LANES>(work, c, 0, &r);
     }
 }
 

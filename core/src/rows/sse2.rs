@@ -11,9 +11,12 @@ use core::arch::x86_64::{
 };
 use core::mem::transmute;
 
-use super::Moves;
-use crate::element::Batch;
+use super::{scatter, Corners, Moves, Row, WorkD, WorkQ};
+use crate::element::hform::{self, Grads};
+use crate::element::{Batch, ElementBlock};
 use crate::lanes::{Lanes, LANES};
+use crate::pass::share_of_a;
+use crate::storage::NodeWork;
 
 /// The moves of the step compiled for the baseline instruction set.
 pub(crate) struct Sse2;
@@ -45,30 +48,7 @@ impl Moves for Sse2 {
     #[inline(always)]
     unsafe fn to_lanes(row: impl Fn(usize) -> __m128, lead: bool) -> [Batch; 3] {
         // One 4×4 transpose per half: lanes 0..4 from rows 0..4, 4..8 from 4..8.
-        let half = |h: usize| {
-            let (t0, t1, t2, t3) = (row(h), row(h + 1), row(h + 2), row(h + 3));
-            // SAFETY: SSE is part of x86_64.
-            unsafe {
-                let a = _mm_unpacklo_ps(t0, t1); // x0 x1 y0 y1
-                let b = _mm_unpacklo_ps(t2, t3); // x2 x3 y2 y3
-                let c = _mm_unpackhi_ps(t0, t1); // z0 z1 ·  ·
-                let d = _mm_unpackhi_ps(t2, t3); // z2 z3 ·  ·
-                if lead {
-                    // Rows [· x y z]: a, b hold · and x, c, d hold y and z.
-                    [
-                        _mm_shuffle_ps::<0xEE>(a, b),
-                        _mm_shuffle_ps::<0x44>(c, d),
-                        _mm_shuffle_ps::<0xEE>(c, d),
-                    ]
-                } else {
-                    [
-                        _mm_shuffle_ps::<0x44>(a, b), // x0 x1 x2 x3
-                        _mm_shuffle_ps::<0xEE>(a, b), // y0 .. y3
-                        _mm_shuffle_ps::<0x44>(c, d), // z0 .. z3
-                    ]
-                }
-            }
-        };
+        let half = |h: usize| rows_to_lanes([row(h), row(h + 1), row(h + 2), row(h + 3)], lead);
         let (lo, hi) = (half(0), half(4));
         [
             lanes([lo[0], hi[0]]),
@@ -81,23 +61,8 @@ impl Moves for Sse2 {
     unsafe fn to_rows(v: &[Batch; 3]) -> [__m128; LANES] {
         let [x, y, z] = [halves(v[0]), halves(v[1]), halves(v[2])];
         // Rows of lanes 4h .. 4h + 4 from the half `h` of each vector.
-        let half = |h: usize| {
-            // SAFETY: SSE is part of x86_64.
-            unsafe {
-                let zero = _mm_set1_ps(-0.0);
-                let a = _mm_unpacklo_ps(x[h], y[h]); // x0 y0 x1 y1
-                let b = _mm_unpackhi_ps(x[h], y[h]); // x2 y2 x3 y3
-                let c = _mm_unpacklo_ps(z[h], zero); // z0 −0 z1 −0
-                let d = _mm_unpackhi_ps(z[h], zero); // z2 −0 z3 −0
-                [
-                    _mm_shuffle_ps::<0x44>(a, c), // x0 y0 z0 −0
-                    _mm_shuffle_ps::<0xEE>(a, c),
-                    _mm_shuffle_ps::<0x44>(b, d),
-                    _mm_shuffle_ps::<0xEE>(b, d),
-                ]
-            }
-        };
-        let (lo, hi) = (half(0), half(1));
+        let lo = lanes_to_rows([x[0], y[0], z[0]]);
+        let hi = lanes_to_rows([x[1], y[1], z[1]]);
         [lo[0], lo[1], lo[2], lo[3], hi[0], hi[1], hi[2], hi[3]]
     }
 
@@ -122,6 +87,188 @@ impl Moves for Sse2 {
             *c = [lanes([x0, x1]), lanes([y0, y1]), lanes([z0, z1])];
         }
     }
+}
+
+/// Four rows `[x y z ·]` (or, with `lead`, `[· x y z]`) as the lanes
+/// `[X, Y, Z]`: a 4×4 transpose.
+#[inline(always)]
+fn rows_to_lanes(t: [__m128; 4], lead: bool) -> [__m128; 3] {
+    // SAFETY: SSE is part of x86_64.
+    unsafe {
+        let a = _mm_unpacklo_ps(t[0], t[1]); // x0 x1 y0 y1
+        let b = _mm_unpacklo_ps(t[2], t[3]); // x2 x3 y2 y3
+        let c = _mm_unpackhi_ps(t[0], t[1]); // z0 z1 ·  ·
+        let d = _mm_unpackhi_ps(t[2], t[3]); // z2 z3 ·  ·
+        if lead {
+            // Rows [· x y z]: a, b hold · and x, c, d hold y and z.
+            [
+                _mm_shuffle_ps::<0xEE>(a, b),
+                _mm_shuffle_ps::<0x44>(c, d),
+                _mm_shuffle_ps::<0xEE>(c, d),
+            ]
+        } else {
+            [
+                _mm_shuffle_ps::<0x44>(a, b), // x0 x1 x2 x3
+                _mm_shuffle_ps::<0xEE>(a, b), // y0 .. y3
+                _mm_shuffle_ps::<0x44>(c, d), // z0 .. z3
+            ]
+        }
+    }
+}
+
+/// The lanes `[X, Y, Z]` as four rows `[xⱼ, yⱼ, zⱼ, −0]`: a 4×4 transpose.
+#[inline(always)]
+fn lanes_to_rows(v: [__m128; 3]) -> [__m128; 4] {
+    let [x, y, z] = v;
+    // SAFETY: SSE is part of x86_64.
+    unsafe {
+        let zero = _mm_set1_ps(-0.0);
+        let a = _mm_unpacklo_ps(x, y); // x0 y0 x1 y1
+        let b = _mm_unpackhi_ps(x, y); // x2 y2 x3 y3
+        let c = _mm_unpacklo_ps(z, zero); // z0 −0 z1 −0
+        let d = _mm_unpackhi_ps(z, zero); // z2 −0 z3 −0
+        [
+            _mm_shuffle_ps::<0x44>(a, c), // x0 y0 z0 −0
+            _mm_shuffle_ps::<0xEE>(a, c),
+            _mm_shuffle_ps::<0x44>(b, d),
+            _mm_shuffle_ps::<0xEE>(b, d),
+        ]
+    }
+}
+
+/// Four lanes (half a block).
+type Quarter = Lanes<4>;
+
+/// Lanes `4H .. 4H + 4` of `b`.
+#[inline(always)]
+fn half_of<const H: usize>(b: &Batch) -> Quarter {
+    const { assert!(H < 2) };
+    Lanes([b.0[4 * H], b.0[4 * H + 1], b.0[4 * H + 2], b.0[4 * H + 3]])
+}
+
+/// Half `H` of a block's world gradients, each read from memory where it
+/// is used ([`super::opaque`]): with 16 `xmm` registers, keeping them
+/// would spill.
+struct HalfGrads<'a, const H: usize>(&'a [[Batch; 3]; 3]);
+
+impl<const H: usize> Grads<Quarter> for HalfGrads<'_, H> {
+    #[inline(always)]
+    fn at(&self, i: usize) -> [Quarter; 3] {
+        let g = &super::opaque(self.0)[i];
+        [
+            half_of::<H>(&g[0]),
+            half_of::<H>(&g[1]),
+            half_of::<H>(&g[2]),
+        ]
+    }
+}
+
+/// The stiffness product `q += −K d` of one whole block (see
+/// [`super::product_block`]) with SSE2, four lanes after four, the
+/// gradients read from memory at each use: each half's values then nearly
+/// fit the 16 `xmm` registers, where the whole block's, two registers per
+/// value, spilled (the step on the 10k cube: 0.61 -> 0.57 ms on a Zen 5,
+/// docs/bench.md). An earlier four-lane try that copied the gradients'
+/// halves out of the block first was slower than eight lanes.
+/// The sums are made in element order, as everywhere. Returns `false`,
+/// having done nothing, if a node index is out of range.
+#[inline(always)]
+pub(crate) fn product_block(
+    per_young: [f32; 2],
+    blk: &ElementBlock,
+    work: &mut [NodeWork],
+) -> bool {
+    // SAFETY: SSE2 is part of x86_64.
+    let Some(corners) = (unsafe { Corners::<NodeWork>::new::<Sse2>(&blk.nodes, work.len()) })
+    else {
+        return false;
+    };
+    let lame = crate::material::lame(blk.stiffness, per_young);
+    product_half::<0>(lame, blk, work, &corners);
+    product_half::<1>(lame, blk, work, &corners);
+    true
+}
+
+/// Lanes `4H .. 4H + 4` of [`product_block`].
+#[inline(always)]
+fn product_half<const H: usize>(
+    lame: [Batch; 2],
+    blk: &ElementBlock,
+    work: &mut [NodeWork],
+    corners: &Corners<NodeWork>,
+) {
+    let mut x = [
+        gather_half::<WorkD, H>(work, corners, 0),
+        gather_half::<WorkD, H>(work, corners, 1),
+        gather_half::<WorkD, H>(work, corners, 2),
+        gather_half::<WorkD, H>(work, corners, 3),
+    ];
+    fence(&mut x);
+    let lame = [half_of::<H>(&lame[0]), half_of::<H>(&lame[1])];
+    let s = hform::product_stress(&x, &HalfGrads::<H>(&blk.grad), lame);
+    let kd = hform::product_forces(&s, &HalfGrads::<H>(&blk.grad));
+    let mut f = [share_of_a(&kd), kd[0], kd[1], kd[2]];
+    fence(&mut f);
+    let out = [
+        lanes_to_rows(xmms(&f[0])),
+        lanes_to_rows(xmms(&f[1])),
+        lanes_to_rows(xmms(&f[2])),
+        lanes_to_rows(xmms(&f[3])),
+    ];
+    scatter::<WorkQ, 4>(work, corners, 4 * H, &out);
+}
+
+/// Lanes `4H .. 4H + 4` of the row field `R` of corner `k` of `slots`, in
+/// lanes `[X, Y, Z]` (as [`super::gather`] gathers eight); zeros if `slots`
+/// is shorter than `corners` needs.
+#[inline(always)]
+fn gather_half<R: Row, const H: usize>(
+    slots: &[R::Slot],
+    corners: &Corners<R::Slot>,
+    k: usize,
+) -> [Quarter; 3] {
+    let Some(row) = corners.loader::<R>(slots, k) else {
+        return [Lanes([0.0; 4]); 3];
+    };
+    let at = 4 * H;
+    quarters(rows_to_lanes(
+        [row(at), row(at + 1), row(at + 2), row(at + 3)],
+        R::LEAD,
+    ))
+}
+
+/// Keeps four-lane values apart from the code around them, in registers
+/// (as [`Moves::fence`] does for eight).
+#[inline(always)]
+fn fence<const N: usize>(v: &mut [[Quarter; 3]; N]) {
+    for c in v.iter_mut() {
+        let [mut x, mut y, mut z] = xmms(c);
+        // SAFETY: an empty template; the registers come back unchanged.
+        unsafe {
+            core::arch::asm!(
+                "/* {0} {1} {2} */",
+                inout(xmm_reg) x,
+                inout(xmm_reg) y,
+                inout(xmm_reg) z,
+                options(pure, nomem, nostack, preserves_flags)
+            );
+        }
+        *c = quarters([x, y, z]);
+    }
+}
+
+/// Three four-lane values as SSE registers.
+#[inline(always)]
+fn xmms(v: &[Quarter; 3]) -> [__m128; 3] {
+    // SAFETY: 16 bytes of 4 `f32`s each; every bit pattern is valid for both.
+    unsafe { transmute::<[Quarter; 3], [__m128; 3]>(*v) }
+}
+
+/// Three SSE registers as four-lane values.
+#[inline(always)]
+fn quarters(v: [__m128; 3]) -> [Quarter; 3] {
+    // SAFETY: as in `xmms`.
+    unsafe { transmute::<[__m128; 3], [Quarter; 3]>(v) }
 }
 
 /// Two SSE registers (lanes 0..4, 4..8) as lanes.
