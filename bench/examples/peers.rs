@@ -24,6 +24,10 @@ const DT: f32 = 1.0e-3;
 const CG: u32 = 5;
 /// Timing rounds per engine; each round steps the same trajectory from rest.
 const ROUNDS: usize = 3;
+/// corofem's CG budgets tried, in order, for the comparison at equal
+/// accuracy: the first whose error is at most rapier's with its defaults is
+/// timed against them.
+const BUDGETS: [u32; 14] = [5, 6, 8, 10, 12, 15, 20, 25, 30, 40, 60, 80, 120, 160];
 
 /// How rapier is configured.
 #[derive(Clone, Copy, PartialEq)]
@@ -177,8 +181,9 @@ fn round(mut e: impl Engine, steps: usize, tip_nodes: &[usize]) -> Round {
 struct Corofem(corofem_io::HeapScene);
 
 impl Corofem {
-    fn new(d: &SceneDef) -> Self {
-        Self(d.core(Method::Qr, DT, CG))
+    /// The scene with `Qr`, dt and a CG budget of `cg` iterations.
+    fn new(d: &SceneDef, cg: u32) -> Self {
+        Self(d.core(Method::Qr, DT, cg))
     }
 }
 
@@ -299,6 +304,9 @@ struct Row {
     corofem: Run,
     rapier: Run,
     defaults: Run,
+    /// corofem at the smallest budget of [`BUDGETS`] as accurate as rapier's
+    /// defaults, and that budget; `None` if none of them is.
+    equal: Option<(u32, Run)>,
     tip: Vec<usize>,
     reference_u: Vec<[f64; 3]>,
 }
@@ -330,6 +338,29 @@ fn collect(rounds: Vec<Round>) -> Run {
         tips: last.tips,
         u: last.u,
     }
+}
+
+/// corofem with the smallest CG budget of [`BUDGETS`] whose error at the
+/// end against `reference_u` is at most `target`, timed over [`ROUNDS`]
+/// rounds, and that budget; `None` if even the largest budget errs more.
+fn equal_accuracy(
+    d: &SceneDef,
+    steps: usize,
+    tip: &[usize],
+    reference_u: &[[f64; 3]],
+    target: f64,
+) -> Option<(u32, Run)> {
+    for cg in BUDGETS {
+        let first = round(Corofem::new(d, cg), steps, tip);
+        if rel_err(&first.u, reference_u) <= target {
+            let mut rounds = vec![first];
+            for _ in 1..ROUNDS {
+                rounds.push(round(Corofem::new(d, cg), steps, tip));
+            }
+            return Some((cg, collect(rounds)));
+        }
+    }
+    None
 }
 
 /// Euler–Bernoulli static tip deflection of a clamped prism of length `l`,
@@ -376,10 +407,14 @@ fn main() -> Res<()> {
         // Rounds interleaved, so a burst of load on the shared machine hits all three.
         for k in 0..ROUNDS {
             eprint!(", round {}", k + 1);
-            c.push(round(Corofem::new(&d), steps, &tip));
+            c.push(round(Corofem::new(&d, CG), steps, &tip));
             m.push(round(Rapier::new(&d, RapierCfg::Matched), steps, &tip));
             f.push(round(Rapier::new(&d, RapierCfg::Defaults), steps, &tip));
         }
+        let defaults = collect(f);
+        let target = rel_err(&defaults.u, &reference_u);
+        eprint!(", corofem at rapier's default accuracy");
+        let equal = equal_accuracy(&d, steps, &tip, &reference_u, target);
         eprintln!();
         let is_beam = d.name.starts_with("beam");
         rows.push(Row {
@@ -392,7 +427,8 @@ fn main() -> Res<()> {
             static_tip: is_beam.then(|| euler_bernoulli(&d)),
             corofem: collect(c),
             rapier: collect(m),
-            defaults: collect(f),
+            defaults,
+            equal,
             tip,
             reference_u,
         });
@@ -416,11 +452,16 @@ fn csv(rows: &[Row]) -> Res<String> {
         "scene,tets,nodes,steps,engine,ms_per_step_best_round,ms_per_step_median,tip_z_m,reference_tip_z_m,peak_tip_z_m,reference_peak_tip_z_m,rel_rms_err_vs_reference\n",
     );
     for r in rows {
-        for (name, run) in [
-            ("corofem", &r.corofem),
-            (RapierCfg::Matched.name(), &r.rapier),
-            (RapierCfg::Defaults.name(), &r.defaults),
-        ] {
+        let equal = r
+            .equal
+            .as_ref()
+            .map(|(cg, run)| (format!("corofem_cg{cg}"), run));
+        let runs = [
+            ("corofem".to_string(), &r.corofem),
+            (RapierCfg::Matched.name().to_string(), &r.rapier),
+            (RapierCfg::Defaults.name().to_string(), &r.defaults),
+        ];
+        for (name, run) in runs.into_iter().chain(equal) {
             writeln!(
                 s,
                 "{},{},{},{},{name},{:.5},{:.5},{:.6e},{:.6e},{:.6e},{:.6e},{:.4e}",
@@ -597,6 +638,36 @@ fn markdown(rows: &[Row], quick: bool, total: f64) -> Res<String> {
             mm(tip(&r.defaults.u, &r.tip)),
             rel_err(&r.defaults.u, &r.reference_u),
         )?;
+    }
+    writeln!(
+        md,
+        "\ncorofem at rapier's default accuracy: the smallest CG budget of {BUDGETS:?} \
+         whose error is at most that of rapier with its defaults (above), timed the same \
+         way, after rapier's rounds:\n"
+    )?;
+    writeln!(
+        md,
+        "| scene | rapier defaults error | corofem CG budget | corofem error | corofem ms/step | rapier defaults ms/step | rapier defaults / corofem |\n|---|---|---|---|---|---|---|"
+    )?;
+    for r in rows {
+        let target = rel_err(&r.defaults.u, &r.reference_u);
+        match &r.equal {
+            Some((cg, run)) => writeln!(
+                md,
+                "| {} | {:.1e} | {cg} | {:.1e} | {:.3} | {:.3} | **{:.1}×** |",
+                r.scene,
+                target,
+                rel_err(&run.u, &r.reference_u),
+                run.ms_best,
+                r.defaults.ms_best,
+                r.defaults.ms_best / run.ms_best,
+            )?,
+            None => writeln!(
+                md,
+                "| {} | {:.1e} | none of {BUDGETS:?} | — | — | {:.3} | — |",
+                r.scene, target, r.defaults.ms_best,
+            )?,
+        }
     }
     writeln!(
         md,
