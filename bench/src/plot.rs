@@ -66,8 +66,12 @@ pub fn loglog(
     if x0 > x1 {
         (x0, x1, y0, y1) = (1.0, 10.0, 1.0, 10.0);
     }
-    // Pad by a factor on each side (log axes); leave room for labels.
-    let (x0, x1, y0, y1) = (x0 / 1.3, x1 * 1.6, y0 / 2.0, y1 * 2.5);
+    // Pad by a factor on each side (log axes); leave room for labels. The
+    // axes start at 1, 2 or 5 times a power of ten: from elsewhere,
+    // plotters' log ticks fell between those and the lowest decade had no
+    // label (Figure 4 read 1, 2, 5, 10 only, its points at 0.2 ms).
+    let (x0, y0) = (nice_below(x0 / 1.3), nice_below(y0 / 2.0));
+    let (x1, y1) = (x1 * 1.6, y1 * 2.5);
     let root = SVGBackend::new(path, (960, 640)).into_drawing_area();
     root.fill(&WHITE)?;
     let mut chart = ChartBuilder::on(&root)
@@ -154,6 +158,20 @@ pub fn loglog(
         .draw()?;
     root.present()?;
     Ok(())
+}
+
+/// The largest of 1, 2 and 5 times a power of ten that is at most `v > 0`.
+fn nice_below(v: f64) -> f64 {
+    let decade = 10f64.powf(v.log10().floor());
+    let m = v / decade;
+    let step = if m >= 5.0 {
+        5.0
+    } else if m >= 2.0 {
+        2.0
+    } else {
+        1.0
+    };
+    step * decade
 }
 
 /// Tick text for 1, 2 and 5 times a power of ten; empty for other ticks
