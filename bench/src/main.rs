@@ -5,7 +5,7 @@
 mod plot;
 
 use corofem::{ElementBlock, Method, Node, NodeEntry, NodeWork, ELEMENTS_PER_BLOCK};
-use corofem_bench::reference::Model;
+use corofem_bench::reference::{Model, RefMethod};
 use corofem_bench::scenes::{self, SceneDef};
 use plot::{loglog, Legend, Series};
 use std::fmt::Write as _;
@@ -503,6 +503,7 @@ fn fig4(o: &Opts, md: &mut String) -> Res<()> {
 /// reference over every step, total error against the fine reference at the
 /// sample times).
 struct Run {
+    method: &'static str,
     dt_ms: f64,
     cg: String,
     iters: f64,
@@ -532,230 +533,289 @@ fn pareto(o: &Opts, md: &mut String) -> Res<()> {
     let horizon_ms: f64 = if o.quick { 80.0 } else { 200.0 };
     let fine_ms: f64 = if o.quick { 0.25 } else { 0.125 };
     let samples = (horizon_ms / sample_ms).round() as usize;
+    // Each method against the reference of its own rotation.
+    let methods = [
+        (Method::Qr, RefMethod::Qr, "Qr"),
+        (Method::Polar, RefMethod::Polar, "Polar"),
+    ];
     let mut csv = String::from(
-        "scene,tets,dt_ms,cg,mean_cg_iterations,ms_per_step,ms_per_simulated_s,err_vs_same_dt_reference,err_vs_fine_reference,diverged\n",
+        "scene,tets,method,dt_ms,cg,mean_cg_iterations,ms_per_step,ms_per_simulated_s,err_vs_same_dt_reference,err_vs_fine_reference,diverged\n",
     );
-    writeln!(md, "## Speed against error (Qr)\n")?;
+    writeln!(md, "## Speed against error (Qr and Polar)\n")?;
     writeln!(
         md,
         "Each run starts at rest and lasts {horizon_ms} ms. *Solve error*: relative RMS of the \
-         node-position difference to the f64 reference with the same dt (linear systems solved \
-         to 1e-12), over every step, divided by the RMS reference displacement — the cost of \
-         truncated f32 CG. *Total error*: the same against an f64 reference at dt = {fine_ms} ms, \
-         at every {sample_ms} ms — adds the time-discretisation error.\n"
+         node-position difference to the f64 reference of the same method with the same dt \
+         (linear systems solved to 1e-12), over every step, divided by the RMS reference \
+         displacement — the cost of truncated f32 CG. *Total error*: the same against an f64 \
+         reference of the same method at dt = {fine_ms} ms, at every {sample_ms} ms — adds the \
+         time-discretisation error. The QR and polar references are the same scheme with the \
+         element rotation of each method (bench/src/reference.rs).\n"
     )?;
     let mut default_err = Vec::new();
     for d in &defs {
-        let total = 1 + dts_ms.len() * (1 + cgs.len());
-        let mut bar = Progress::new(&format!("error: {}", d.name), total);
-        // Fine reference at the sample times.
-        let sample_of = |dt_ms: f64| (sample_ms / dt_ms).round() as usize;
-        let mut fine = d.reference();
-        let fs = d.ref_settings(fine_ms * 1e-3);
-        let mut fine_samples: Vec<Vec<[f64; 3]>> = Vec::new();
-        let every = sample_of(fine_ms);
-        for s in 1..=samples * every {
-            fine.step(&fs);
-            if s % every == 0 {
-                fine_samples.push((0..fine.nodes()).map(|i| fine.u[i]).collect());
-            }
-        }
-        bar.tick();
-        let fine_norm2: f64 = fine_samples
-            .iter()
-            .flatten()
-            .map(|u| u.iter().map(|x| x * x).sum::<f64>())
-            .sum();
-        let mut runs = Vec::new();
-        for &dt_ms in &dts_ms {
-            let steps = (horizon_ms / dt_ms).round() as usize;
-            let mut r = d.reference();
-            let rs = d.ref_settings(dt_ms * 1e-3);
-            let mut traj: Vec<Vec<[f64; 3]>> = Vec::with_capacity(steps);
-            for _ in 0..steps {
-                r.step(&rs);
-                traj.push(r.u.clone());
+        let mut all_runs = Vec::new();
+        for &(method, ref_method, mname) in &methods {
+            let total = 1 + dts_ms.len() * (1 + cgs.len());
+            let mut bar = Progress::new(&format!("error: {} {mname}", d.name), total);
+            // Fine reference at the sample times.
+            let sample_of = |dt_ms: f64| (sample_ms / dt_ms).round() as usize;
+            let mut fine = d.reference().with_method(ref_method);
+            let fs = d.ref_settings(fine_ms * 1e-3);
+            let mut fine_samples: Vec<Vec<[f64; 3]>> = Vec::new();
+            let every = sample_of(fine_ms);
+            for s in 1..=samples * every {
+                fine.step(&fs);
+                if s % every == 0 {
+                    fine_samples.push((0..fine.nodes()).map(|i| fine.u[i]).collect());
+                }
             }
             bar.tick();
-            let ref_norm2: f64 = traj
+            let fine_norm2: f64 = fine_samples
                 .iter()
                 .flatten()
                 .map(|u| u.iter().map(|x| x * x).sum::<f64>())
                 .sum();
-            let every = sample_of(dt_ms);
-            for &(cg, label) in &cgs {
-                let mut sc = d.core(Method::Qr, (dt_ms * 1e-3) as f32, cg);
-                let (mut e_s, mut e_t, mut secs, mut its) = (0.0f64, 0.0f64, 0.0f64, 0u64);
-                let mut diverged = false;
-                for (s, ru) in traj.iter().enumerate() {
-                    let t = Instant::now();
-                    let st = corofem_io::fast::step(&mut sc);
-                    secs += t.elapsed().as_secs_f64();
-                    match st {
-                        Ok(st) => its += u64::from(st.cg_iterations),
-                        Err(_) => {
-                            diverged = true;
-                            break;
+            let mut runs = Vec::new();
+            for &dt_ms in &dts_ms {
+                let steps = (horizon_ms / dt_ms).round() as usize;
+                let mut r = d.reference().with_method(ref_method);
+                let rs = d.ref_settings(dt_ms * 1e-3);
+                let mut traj: Vec<Vec<[f64; 3]>> = Vec::with_capacity(steps);
+                for _ in 0..steps {
+                    r.step(&rs);
+                    traj.push(r.u.clone());
+                }
+                bar.tick();
+                let ref_norm2: f64 = traj
+                    .iter()
+                    .flatten()
+                    .map(|u| u.iter().map(|x| x * x).sum::<f64>())
+                    .sum();
+                let every = sample_of(dt_ms);
+                for &(cg, label) in &cgs {
+                    let mut sc = d.core(method, (dt_ms * 1e-3) as f32, cg);
+                    let (mut e_s, mut e_t, mut secs, mut its) = (0.0f64, 0.0f64, 0.0f64, 0u64);
+                    let mut diverged = false;
+                    for (s, ru) in traj.iter().enumerate() {
+                        let t = Instant::now();
+                        let st = corofem_io::fast::step(&mut sc);
+                        secs += t.elapsed().as_secs_f64();
+                        match st {
+                            Ok(st) => its += u64::from(st.cg_iterations),
+                            Err(_) => {
+                                diverged = true;
+                                break;
+                            }
                         }
-                    }
-                    for (i, u) in
-                        (0..ru.len()).map(|i| (i, sc.displacement(i).unwrap_or([f32::NAN; 3])))
-                    {
-                        for c in 0..3 {
-                            e_s += (f64::from(u[c]) - ru[i][c]).powi(2);
-                        }
-                    }
-                    if (s + 1) % every == 0 {
-                        let fu = &fine_samples[(s + 1) / every - 1];
-                        for (i, f) in fu.iter().enumerate() {
-                            let u = sc.displacement(i).unwrap_or([f32::NAN; 3]);
+                        for (i, u) in
+                            (0..ru.len()).map(|i| (i, sc.displacement(i).unwrap_or([f32::NAN; 3])))
+                        {
                             for c in 0..3 {
-                                e_t += (f64::from(u[c]) - f[c]).powi(2);
+                                e_s += (f64::from(u[c]) - ru[i][c]).powi(2);
+                            }
+                        }
+                        if (s + 1) % every == 0 {
+                            let fu = &fine_samples[(s + 1) / every - 1];
+                            for (i, f) in fu.iter().enumerate() {
+                                let u = sc.displacement(i).unwrap_or([f32::NAN; 3]);
+                                for c in 0..3 {
+                                    e_t += (f64::from(u[c]) - f[c]).powi(2);
+                                }
                             }
                         }
                     }
-                }
-                let run = Run {
-                    dt_ms,
-                    cg: label.into(),
-                    iters: its as f64 / steps as f64,
-                    ms_step: secs * 1e3 / steps as f64,
-                    err_solve: (e_s / ref_norm2).sqrt(),
-                    err_total: (e_t / fine_norm2).sqrt(),
-                    diverged,
-                };
-                writeln!(
-                    csv,
-                    "{},{},{},{},{:.2},{:.5},{:.3},{:.4e},{:.4e},{}",
-                    d.name,
-                    d.tets.len(),
-                    dt_ms,
-                    run.cg,
-                    run.iters,
-                    run.ms_step,
-                    run.ms_step * 1e3 / dt_ms,
-                    run.err_solve,
-                    run.err_total,
-                    run.diverged
-                )?;
-                if dt_ms == 1.0 && cg == 5 {
-                    default_err.push((
-                        d.name.clone(),
+                    let run = Run {
+                        method: mname,
+                        dt_ms,
+                        cg: label.into(),
+                        iters: its as f64 / steps as f64,
+                        ms_step: secs * 1e3 / steps as f64,
+                        err_solve: (e_s / ref_norm2).sqrt(),
+                        err_total: (e_t / fine_norm2).sqrt(),
+                        diverged,
+                    };
+                    writeln!(
+                        csv,
+                        "{},{},{mname},{},{},{:.2},{:.5},{:.3},{:.4e},{:.4e},{}",
+                        d.name,
                         d.tets.len(),
+                        dt_ms,
+                        run.cg,
+                        run.iters,
+                        run.ms_step,
+                        run.ms_step * 1e3 / dt_ms,
                         run.err_solve,
                         run.err_total,
-                        run.ms_step,
-                    ));
+                        run.diverged
+                    )?;
+                    if dt_ms == 1.0 && cg == 5 {
+                        default_err.push((
+                            mname,
+                            d.name.clone(),
+                            d.tets.len(),
+                            run.err_solve,
+                            run.err_total,
+                            run.ms_step,
+                        ));
+                    }
+                    runs.push(run);
+                    bar.tick();
                 }
-                runs.push(run);
-                bar.tick();
             }
-        }
-        bar.finish();
-        let ok = |r: &&Run| !r.diverged && r.err_solve.is_finite();
-        let mut s1 = Vec::new();
-        let mut s2 = Vec::new();
-        for (k, &dt_ms) in dts_ms.iter().enumerate() {
-            let rs: Vec<&Run> = runs
-                .iter()
-                .filter(|r| r.dt_ms == dt_ms)
-                .filter(ok)
-                .collect();
-            let labels = if dt_ms == 1.0 {
-                rs.iter().map(|r| r.cg.clone()).collect()
-            } else {
-                Vec::new()
-            };
-            s1.push(Series {
-                name: format!("dt {dt_ms} ms"),
-                points: rs
+            bar.finish();
+            let ok = |r: &&Run| !r.diverged && r.err_solve.is_finite();
+            let mut s1 = Vec::new();
+            let mut s2 = Vec::new();
+            for (k, &dt_ms) in dts_ms.iter().enumerate() {
+                let rs: Vec<&Run> = runs
                     .iter()
-                    .map(|r| (r.ms_step, r.err_solve.max(1e-9)))
-                    .collect(),
-                line: true,
-                labels: labels.clone(),
-                color: k,
-                marker: 0,
-            });
-            s2.push(Series {
-                name: format!("dt {dt_ms} ms"),
-                points: rs
-                    .iter()
-                    .map(|r| (r.ms_step * 1e3 / dt_ms, r.err_total.max(1e-9)))
-                    .collect(),
-                line: true,
-                labels,
-                color: k,
-                marker: 0,
-            });
-        }
-        loglog(
-            &o.out.join(format!("pareto_solve_{}.svg", d.name)),
-            &format!(
-                "{} ({} tets): truncated-CG error, Qr (labels: CG iterations)",
-                d.name,
-                d.tets.len()
-            ),
-            "ms per step",
-            "relative RMS position error vs f64 reference, same dt",
-            &s1,
-            Legend::UpperRight,
-        )?;
-        loglog(
-            &o.out.join(format!("pareto_total_{}.svg", d.name)),
-            &format!(
-                "{} ({} tets): total error, Qr (labels: CG iterations)",
-                d.name,
-                d.tets.len()
-            ),
-            "ms of computation per simulated second",
-            &format!("relative RMS error vs f64 reference, dt {fine_ms} ms"),
-            &s2,
-            Legend::UpperRight,
-        )?;
-        writeln!(
-            md,
-            "### {} ({} tets, {} nodes)\n",
-            d.name,
-            d.tets.len(),
-            d.nodes.len()
-        )?;
-        writeln!(
-            md,
-            "![](pareto_solve_{0}.svg)\n![](pareto_total_{0}.svg)\n",
-            d.name
-        )?;
-        writeln!(
-            md,
-            "Solve error (rows: dt in ms; columns: CG iterations):\n"
-        )?;
-        write!(md, "| dt \\ CG |")?;
-        for (_, l) in &cgs {
-            write!(md, " {l} |")?;
-        }
-        writeln!(md, "\n|---|{}", "---|".repeat(cgs.len()))?;
-        for &dt_ms in &dts_ms {
-            write!(md, "| {dt_ms} |")?;
-            for r in runs.iter().filter(|r| r.dt_ms == dt_ms) {
-                if r.diverged {
-                    write!(md, " diverged |")?;
+                    .filter(|r| r.dt_ms == dt_ms)
+                    .filter(ok)
+                    .collect();
+                let labels = if dt_ms == 1.0 {
+                    rs.iter().map(|r| r.cg.clone()).collect()
                 } else {
-                    write!(md, " {:.1e} |", r.err_solve)?;
+                    Vec::new()
+                };
+                s1.push(Series {
+                    name: format!("dt {dt_ms} ms"),
+                    points: rs
+                        .iter()
+                        .map(|r| (r.ms_step, r.err_solve.max(1e-9)))
+                        .collect(),
+                    line: true,
+                    labels: labels.clone(),
+                    color: k,
+                    marker: 0,
+                });
+                s2.push(Series {
+                    name: format!("dt {dt_ms} ms"),
+                    points: rs
+                        .iter()
+                        .map(|r| (r.ms_step * 1e3 / dt_ms, r.err_total.max(1e-9)))
+                        .collect(),
+                    line: true,
+                    labels,
+                    color: k,
+                    marker: 0,
+                });
+            }
+            // Qr keeps the file names of the report before Polar was added.
+            let suffix = if method == Method::Qr { "" } else { "_polar" };
+            loglog(
+                &o.out.join(format!("pareto_solve_{}{suffix}.svg", d.name)),
+                &format!(
+                    "{} ({} tets): truncated-CG error, {mname} (labels: CG iterations)",
+                    d.name,
+                    d.tets.len()
+                ),
+                "ms per step",
+                "relative RMS position error vs f64 reference, same dt",
+                &s1,
+                Legend::UpperRight,
+            )?;
+            loglog(
+                &o.out.join(format!("pareto_total_{}{suffix}.svg", d.name)),
+                &format!(
+                    "{} ({} tets): total error, {mname} (labels: CG iterations)",
+                    d.name,
+                    d.tets.len()
+                ),
+                "ms of computation per simulated second",
+                &format!("relative RMS error vs f64 reference, dt {fine_ms} ms"),
+                &s2,
+                Legend::UpperRight,
+            )?;
+            writeln!(
+                md,
+                "### {} ({} tets, {} nodes), {mname}\n",
+                d.name,
+                d.tets.len(),
+                d.nodes.len()
+            )?;
+            writeln!(
+                md,
+                "![](pareto_solve_{0}{suffix}.svg)\n![](pareto_total_{0}{suffix}.svg)\n",
+                d.name
+            )?;
+            writeln!(
+                md,
+                "Solve error, {mname} (rows: dt in ms; columns: CG iterations):\n"
+            )?;
+            write!(md, "| dt \\ CG |")?;
+            for (_, l) in &cgs {
+                write!(md, " {l} |")?;
+            }
+            writeln!(md, "\n|---|{}", "---|".repeat(cgs.len()))?;
+            for &dt_ms in &dts_ms {
+                write!(md, "| {dt_ms} |")?;
+                for r in runs.iter().filter(|r| r.dt_ms == dt_ms) {
+                    if r.diverged {
+                        write!(md, " diverged |")?;
+                    } else {
+                        write!(md, " {:.1e} |", r.err_solve)?;
+                    }
                 }
+                writeln!(md)?;
             }
             writeln!(md)?;
+            all_runs.extend(runs);
         }
-        writeln!(md)?;
+        methods_plot(o, md, d, &all_runs, fine_ms)?;
     }
     std::fs::write(o.out.join("pareto.csv"), csv)?;
-    writeln!(md, "### Default settings (Qr, 5 CG iterations, dt 1 ms)\n")?;
+    writeln!(md, "### Default settings (5 CG iterations, dt 1 ms)\n")?;
     writeln!(
         md,
-        "| scene | tets | ms/step | solve error | total error |\n|---|---|---|---|---|"
+        "| scene | tets | method | ms/step | solve error | total error |\n|---|---|---|---|---|---|"
     )?;
-    for (n, t, es, et, ms) in default_err {
-        writeln!(md, "| {n} | {t} | {ms:.3} | {es:.2e} | {et:.2e} |")?;
+    for (m, n, t, es, et, ms) in default_err {
+        writeln!(md, "| {n} | {t} | {m} | {ms:.3} | {es:.2e} | {et:.2e} |")?;
     }
     writeln!(md)?;
+    Ok(())
+}
+
+/// The Pareto front across methods: every (dt, CG) run of each method of
+/// one scene, cost per simulated second against total error, a marker per
+/// run and a colour per method, to `pareto_methods_<scene>.svg`.
+fn methods_plot(o: &Opts, md: &mut String, d: &SceneDef, runs: &[Run], fine_ms: f64) -> Res<()> {
+    let mut names: Vec<&str> = runs.iter().map(|r| r.method).collect();
+    names.dedup();
+    let series: Vec<Series> = names
+        .iter()
+        .enumerate()
+        .map(|(k, &m)| Series {
+            name: m.to_string(),
+            points: runs
+                .iter()
+                .filter(|r| r.method == m && !r.diverged && r.err_total.is_finite())
+                .map(|r| (r.ms_step * 1e3 / r.dt_ms, r.err_total.max(1e-9)))
+                .collect(),
+            line: false,
+            labels: Vec::new(),
+            color: k,
+            marker: k as u8,
+        })
+        .collect();
+    loglog(
+        &o.out.join(format!("pareto_methods_{}.svg", d.name)),
+        &format!(
+            "{} ({} tets): total error of every dt and CG budget, per method",
+            d.name,
+            d.tets.len()
+        ),
+        "ms of computation per simulated second",
+        &format!("relative RMS error vs f64 reference, dt {fine_ms} ms"),
+        &series,
+        Legend::UpperRight,
+    )?;
+    writeln!(
+        md,
+        "Both methods of {0} on one plot (each point a dt and CG budget; the lower-left \
+         envelope is the Pareto front):\n\n![](pareto_methods_{0}.svg)\n",
+        d.name
+    )?;
     Ok(())
 }

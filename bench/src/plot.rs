@@ -107,10 +107,16 @@ pub fn loglog(
         } else {
             chart.draw_series(std::iter::empty::<PathElement<(f64, f64)>>())?
         };
+        // The legend shows the series' marker (and its line, if it has one).
+        let line = if s.line { 20 } else { 0 };
         anno.label(s.name.clone()).legend(move |(x, y)| {
-            EmptyElement::at((x, y))
-                + PathElement::new(vec![(0, 0), (20, 0)], c.stroke_width(2))
-                + Circle::new((10, 0), 4, c.filled())
+            let at = EmptyElement::at((x, y))
+                + PathElement::new(vec![(0, 0), (line, 0)], c.stroke_width(2));
+            match marker {
+                1 => at + TriangleMarker::new((10, 0), 7, c.filled()).into_dyn(),
+                2 => at + Cross::new((10, 0), 6, c.stroke_width(2)).into_dyn(),
+                _ => at + Circle::new((10, 0), 4, c.filled()).into_dyn(),
+            }
         });
         match marker {
             1 => {

@@ -2,8 +2,15 @@
 //! scheme (DESIGN.md §2–§4), with every implicit step's linear system solved
 //! to a relative residual of 1e-12.
 //!
-//! * QR frame of the current edges, `B` from the current shape, scaled by the
-//!   rest volume: `λ' = λ/(36 V₀)`, `μ' = μ/(36 V₀)`, gradients ×6V.
+//! * [`RefMethod::Qr`]: QR frame of the current edges, `B` from the current
+//!   shape, scaled by the rest volume: `λ' = λ/(36 V₀)`, `μ' = μ/(36 V₀)`,
+//!   gradients ×6V.
+//! * [`RefMethod::Polar`]: the rotation `R` closest to the deformation
+//!   gradient `F = D D₀⁻¹` (edge matrices, columns `b − a, c − a, d − a`)
+//!   among proper rotations (`det R = +1` also for an inverted element), from
+//!   an f64 SVD, and the rest gradients (×6V₀): strains are measured in the
+//!   rest shape rotated by `R`, the stiffness is `R K₀ Rᵀ` (the core's
+//!   `Polar`, whose Newton search on SO(3) converges to the same `R`).
 //! * Lumped mass `ρ V₀ / 4` per element node.
 //! * Baraff–Witkin linearised implicit Euler with Rayleigh damping:
 //!   `A = (1 + h α_M) M + h (α_K + h) K`,
@@ -17,7 +24,17 @@
 //! core's matrix-free H-form. The code is generic over the float type so the
 //! benchmark can time an assembled f32 variant with the same kernel.
 
+use nalgebra::Matrix3;
 use num_traits::Float;
+
+/// The element rotation the reference measures strains in.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RefMethod {
+    /// QR frame of the current edges, `B` from the current shape (`Method::Qr`).
+    Qr,
+    /// Polar rotation of `F` with rest gradients (`Method::Polar`).
+    Polar,
+}
 
 /// 3-vector.
 pub type V<T> = [T; 3];
@@ -63,6 +80,34 @@ fn frame<T: Float>(ab: V<T>, ac: V<T>, ad: V<T>) -> ([V<T>; 3], [T; 6]) {
     )
 }
 
+/// The rotation closest to `f` (rows) with determinant +1: `U Vᵀ` of the
+/// SVD `f = U Σ Vᵀ`, with the column of `U` of the smallest singular value
+/// negated when `det(U Vᵀ) < 0` (an inverted element).
+fn closest_rotation(f: [[f64; 3]; 3]) -> [[f64; 3]; 3] {
+    let m = Matrix3::from_fn(|r, c| f[r][c]);
+    let svd = m.svd(true, true);
+    let (Some(mut u), Some(v_t)) = (svd.u, svd.v_t) else {
+        return [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    };
+    if (u * v_t).determinant() < 0.0 {
+        let k = svd.singular_values.imin();
+        u.column_mut(k).neg_mut();
+    }
+    let r = u * v_t;
+    [0, 1, 2].map(|i| [r[(i, 0)], r[(i, 1)], r[(i, 2)]])
+}
+
+/// The inverse of the 3×3 matrix `m` (rows) and its determinant.
+fn inverse<T: Float>(m: [[T; 3]; 3]) -> ([[T; 3]; 3], T) {
+    let c0 = cross(m[1], m[2]);
+    let c1 = cross(m[2], m[0]);
+    let c2 = cross(m[0], m[1]);
+    let det = dot(m[0], c0);
+    // Columns of the inverse are the cofactor rows over det.
+    let inv = [0, 1, 2].map(|r| [c0[r] / det, c1[r] / det, c2[r] / det]);
+    (inv, det)
+}
+
 /// Block CSR matrix with 3×3 blocks (row-major inside a block).
 #[derive(Clone, Debug)]
 pub struct Bsr<T> {
@@ -105,6 +150,11 @@ pub struct Model<T> {
     pub tets: Vec<[u32; 4]>,
     /// Rest local coordinates per element.
     pub rest: Vec<[T; 6]>,
+    /// The element rotation (default [`RefMethod::Qr`]; see [`Model::with_method`]).
+    pub method: RefMethod,
+    /// Per element, the inverse of the rest edge matrix `D₀` (columns
+    /// `b − a, c − a, d − a`) and `det D₀ = 6 V₀`, for [`RefMethod::Polar`].
+    rest_inv: Vec<([[T; 3]; 3], T)>,
     /// `[λ', μ'] = [λ, μ] / (36 V₀)` per element.
     pub lame: Vec<[T; 2]>,
     /// Lumped masses (kg).
@@ -168,6 +218,7 @@ impl<T: Float> Model<T> {
         let lam = young * poisson / ((1.0 + poisson) * (1.0 - 2.0 * poisson));
         let mu = young / (2.0 * (1.0 + poisson));
         let mut rest = Vec::with_capacity(tets.len());
+        let mut rest_inv = Vec::with_capacity(tets.len());
         let mut lame = Vec::with_capacity(tets.len());
         let mut mass = vec![T::zero(); n];
         for t in tets {
@@ -176,6 +227,8 @@ impl<T: Float> Model<T> {
             let six_v0 = l[0] * l[2] * l[5];
             assert!(six_v0 > T::zero(), "element not positively oriented");
             rest.push(l);
+            let (e1, e2, e3) = (sub(p(1), p(0)), sub(p(2), p(0)), sub(p(3), p(0)));
+            rest_inv.push(inverse([0, 1, 2].map(|r| [e1[r], e2[r], e3[r]])));
             let s = cf(6.0) / (cf(36.0) * six_v0);
             lame.push([cf(lam) * s, cf(mu) * s]);
             let quarter = cf(density) * six_v0 / cf(24.0);
@@ -223,6 +276,8 @@ impl<T: Float> Model<T> {
             x0,
             tets: tets.to_vec(),
             rest,
+            method: RefMethod::Qr,
+            rest_inv,
             lame,
             mass,
             fixed: is_fixed,
@@ -236,6 +291,13 @@ impl<T: Float> Model<T> {
             slots,
             f_el: vec![[T::zero(); 3]; n],
         }
+    }
+
+    /// The same model with element rotations of `method`.
+    #[must_use]
+    pub fn with_method(mut self, method: RefMethod) -> Self {
+        self.method = method;
+        self
     }
 
     /// Number of nodes.
@@ -266,22 +328,52 @@ impl<T: Float> Model<T> {
                 let d = sub(self.u[ids[k]], self.u[ids[0]]);
                 [r[0] + d[0], r[1] + d[1], r[2] + d[2]]
             };
-            let (fr, l) = frame(edge(1), edge(2), edge(3));
-            let l0 = self.rest[e];
-            let [xb, xc, yc, xd, yd, zd] = l;
             let z = T::zero();
-            // Local gradients ×6V of b, c, d (DESIGN.md §2).
-            let g = [
-                [yc * zd, -(xc * zd), xc * yd - yc * xd],
-                [z, xb * zd, -(xb * yd)],
-                [z, z, xb * yc],
-            ];
-            // Local displacement; u_a = 0, u_b = (ubx,0,0), u_c = (ucx,ucy,0).
-            let du = [
-                [l[0] - l0[0], z, z],
-                [l[1] - l0[1], l[2] - l0[2], z],
-                [l[3] - l0[3], l[4] - l0[4], l[5] - l0[5]],
-            ];
+            // `fr`: world → element frame (rows); `g`: gradients of b, c, d in
+            // that frame; `du`: displacements of b, c, d relative to a there.
+            let (fr, g, du) = match self.method {
+                RefMethod::Qr => {
+                    let (fr, l) = frame(edge(1), edge(2), edge(3));
+                    let l0 = self.rest[e];
+                    let [xb, xc, yc, xd, yd, zd] = l;
+                    // Local gradients ×6V of b, c, d (DESIGN.md §2).
+                    let g = [
+                        [yc * zd, -(xc * zd), xc * yd - yc * xd],
+                        [z, xb * zd, -(xb * yd)],
+                        [z, z, xb * yc],
+                    ];
+                    // Local displacement; u_a = 0, u_b = (ubx,0,0), u_c = (ucx,ucy,0).
+                    let du = [
+                        [l[0] - l0[0], z, z],
+                        [l[1] - l0[1], l[2] - l0[2], z],
+                        [l[3] - l0[3], l[4] - l0[4], l[5] - l0[5]],
+                    ];
+                    (fr, g, du)
+                }
+                RefMethod::Polar => {
+                    // F = D D₀⁻¹; R the closest proper rotation; the frame
+                    // is the rest shape rotated by R (world → frame: Rᵀ).
+                    let (inv, six_v0) = self.rest_inv[e];
+                    let d = [edge(1), edge(2), edge(3)];
+                    let f = [0, 1, 2].map(|r| {
+                        [0, 1, 2].map(|c| {
+                            d[0][r] * inv[0][c] + d[1][r] * inv[1][c] + d[2][r] * inv[2][c]
+                        })
+                    });
+                    let to64 = |x: T| x.to_f64().unwrap_or(f64::NAN);
+                    let r = closest_rotation(f.map(|row| row.map(to64)));
+                    let fr = [0, 1, 2].map(|i| [0, 1, 2].map(|j| T::from(r[j][i]).unwrap_or(z)));
+                    // Rest gradients ×6V₀: the rows of D₀⁻¹ times det D₀.
+                    let g = [0, 1, 2].map(|i| inv[i].map(|v| v * six_v0));
+                    // Rᵀ d − d₀ for b, c, d (d₀ = rest edge).
+                    let x0 = |k: usize| sub(self.x0[ids[k]], self.x0[ids[0]]);
+                    let du = [1, 2, 3].map(|k| {
+                        let (dk, rk) = (edge(k), x0(k));
+                        [0, 1, 2].map(|i| dot(fr[i], dk) - rk[i])
+                    });
+                    (fr, g, du)
+                }
+            };
             // H = Σ du_i g_iᵀ; σ = λ' tr H I + μ' (H + Hᵀ); f_i = −σ g_i.
             let [lam, mu] = self.lame[e];
             let mut h = [[z; 3]; 3];
