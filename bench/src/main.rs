@@ -2,6 +2,7 @@
 //! report (CSV, SVG, summary.md) to `target/bench-report/` by default.
 //! See docs/bench.md.
 
+mod metrics;
 mod plot;
 
 use corofem::{ElementBlock, Method, Node, NodeEntry, NodeWork, ELEMENTS_PER_BLOCK};
@@ -90,6 +91,7 @@ fn main() -> Res<()> {
     fig7(&o, &mut md)?;
     fig4(&o, &mut md)?;
     pareto(&o, &mut md)?;
+    metrics::metrics(&o, &mut md)?;
     let total = t0.elapsed().as_secs_f64();
     let md = md.replace("{TOTAL}", &format!("{total:.0}"));
     std::fs::write(o.out.join("summary.md"), md)?;
