@@ -76,6 +76,17 @@ fn main() -> Res<()> {
     else {
         return Ok(());
     };
+    // Figure 7 and the speed-against-error section read the shared meshes:
+    // say so up front rather than fail in the middle of the run.
+    let meshes = scenes::meshes_dir();
+    if !meshes.is_dir() {
+        return Err(format!(
+            "the report reads the shared meshes (liver, bunny, beams) from {}, which is not \
+             a folder: set COROFEM_MESHES to where they are",
+            meshes.display()
+        )
+        .into());
+    }
     let quick = o.quick;
     let t0 = Instant::now();
     let mut md = String::new();
