@@ -125,31 +125,24 @@ fn reference_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../host-tests/reference")
 }
 
-/// The number at the end of the key path `keys` in `json`: each key is looked
-/// for after the previous one, which is enough for the fixed layout of
-/// cantilever_reference.json (it names each mesh once, and each of a mesh's
-/// load cases once, gravity first) without a JSON dependency.
-fn json_number(json: &str, keys: &[&str]) -> Res<f64> {
-    let mut at = 0;
-    for key in keys {
-        let pat = format!("\"{key}\":");
-        at += json[at..]
-            .find(&pat)
-            .ok_or_else(|| format!("cantilever_reference.json: no {}", keys.join(".")))?
-            + pat.len();
-    }
-    let rest = json[at..].trim_start();
-    let end = rest
-        .find(|c: char| !(c.is_ascii_digit() || "+-.eE".contains(c)))
-        .unwrap_or(rest.len());
-    Ok(rest[..end].parse()?)
+/// The number at the key path `keys` of the parsed cantilever_reference.json.
+fn json_number(json: &serde_json::Value, keys: &[&str]) -> Res<f64> {
+    keys.iter()
+        .try_fold(json, |v, k| v.get(k))
+        .and_then(serde_json::Value::as_f64)
+        .ok_or_else(|| format!("cantilever_reference.json: no number at {}", keys.join(".")).into())
 }
 
 /// Reads the reference of `name` for a mesh of `nodes` nodes whose free-end
 /// nodes are `tip_nodes`. The JSON's tip mean must equal the mean of the
 /// CSV's u_z over `tip_nodes` (the same definition) to 1e-8 relative, or the
 /// files and the mesh do not belong together.
-fn sag_reference(json: &str, name: &str, nodes: usize, tip_nodes: &[usize]) -> Res<SagReference> {
+fn sag_reference(
+    json: &serde_json::Value,
+    name: &str,
+    nodes: usize,
+    tip_nodes: &[usize],
+) -> Res<SagReference> {
     let tip = json_number(json, &["meshes", name, "gravity", "tip_uz_mean"])?;
     let file = reference_dir().join(format!("cantilever_{name}_gravity.csv"));
     let text = std::fs::read_to_string(&file).map_err(|e| format!("{}: {e}", file.display()))?;
@@ -185,8 +178,9 @@ fn euler_bernoulli(l: f64, b: f64, h: f64, young: f64, density: f64, g: f64) -> 
 fn statics(o: &Opts, md: &mut String) -> Res<()> {
     let beams: &[&str] = if o.quick { &BEAMS[..2] } else { &BEAMS };
     let json_path = reference_dir().join("cantilever_reference.json");
-    let json =
+    let text =
         std::fs::read_to_string(&json_path).map_err(|e| format!("{}: {e}", json_path.display()))?;
+    let json: serde_json::Value = serde_json::from_str(&text)?;
     // The material and load in f64 for the beam theory, rounded to f32 for the core.
     let (young, poisson, density, g) = (1.0e9f64, 0.3f64, 1000.0f64, 9.81f64);
     // Beam theory computed here, and checked against the script's value.
