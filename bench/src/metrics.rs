@@ -12,6 +12,7 @@
 use super::Progress;
 use corofem::{Method, StaticSettings};
 use corofem_bench::args::ReportArgs as Opts;
+use corofem_bench::reference::{cross, dot, sub};
 use corofem_bench::scenes::{self, SceneDef};
 use corofem_io::HeapScene;
 use std::fmt::Write as _;
@@ -74,23 +75,9 @@ fn displacements(scene: &HeapScene) -> Vec<[f64; 3]> {
         .collect()
 }
 
-/// `a − b`.
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-/// `a × b`.
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
 /// `|a|`.
 fn norm(a: [f64; 3]) -> f64 {
-    (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt()
+    dot(a, a).sqrt()
 }
 
 /// Formats a relative error for a table cell.

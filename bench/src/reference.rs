@@ -39,16 +39,19 @@ pub enum RefMethod {
 /// 3-vector.
 pub type V<T> = [T; 3];
 
+/// `a − b`.
 #[inline(always)]
-fn sub<T: Float>(a: V<T>, b: V<T>) -> V<T> {
+pub fn sub<T: Float>(a: V<T>, b: V<T>) -> V<T> {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
+/// `a · b`.
 #[inline(always)]
-fn dot<T: Float>(a: V<T>, b: V<T>) -> T {
+pub fn dot<T: Float>(a: V<T>, b: V<T>) -> T {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
+/// `a × b`.
 #[inline(always)]
-fn cross<T: Float>(a: V<T>, b: V<T>) -> V<T> {
+pub fn cross<T: Float>(a: V<T>, b: V<T>) -> V<T> {
     [
         a[1] * b[2] - a[2] * b[1],
         a[2] * b[0] - a[0] * b[2],
