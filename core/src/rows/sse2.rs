@@ -68,23 +68,17 @@ impl Moves for Sse2 {
 
     #[inline(always)]
     unsafe fn fence<const N: usize>(v: &mut [[Batch; 3]; N]) {
+        // Each value's halves through the four-lane barrier.
         for c in v.iter_mut() {
-            let [[mut x0, mut x1], [mut y0, mut y1], [mut z0, mut z1]] =
-                [halves(c[0]), halves(c[1]), halves(c[2])];
-            // SAFETY: an empty template; the registers come back unchanged.
-            unsafe {
-                core::arch::asm!(
-                    "/* {0} {1} {2} {3} {4} {5} */",
-                    inout(xmm_reg) x0,
-                    inout(xmm_reg) x1,
-                    inout(xmm_reg) y0,
-                    inout(xmm_reg) y1,
-                    inout(xmm_reg) z0,
-                    inout(xmm_reg) z1,
-                    options(pure, nomem, nostack, preserves_flags)
-                );
-            }
-            *c = [lanes([x0, x1]), lanes([y0, y1]), lanes([z0, z1])];
+            let [x, y, z] = [halves(c[0]), halves(c[1]), halves(c[2])];
+            let mut q = [quarters([x[0], y[0], z[0]]), quarters([x[1], y[1], z[1]])];
+            fence(&mut q);
+            let [lo, hi] = [xmms(&q[0]), xmms(&q[1])];
+            *c = [
+                lanes([lo[0], hi[0]]),
+                lanes([lo[1], hi[1]]),
+                lanes([lo[2], hi[2]]),
+            ];
         }
     }
 }
