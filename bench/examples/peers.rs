@@ -10,6 +10,7 @@
 //! report binary never link it.
 
 use corofem::Method;
+use corofem_bench::reference::Trajectory;
 use corofem_bench::scenes::{self, SceneDef};
 use rapier3d::prelude::*;
 use std::fmt::Write as _;
@@ -162,15 +163,6 @@ struct Round {
     u: Vec<[f64; 3]>,
 }
 
-/// The reference's node displacements after every step (m), and their
-/// squared sum: `sqrt(Σ_steps Σ_nodes |u − u_ref|² / Σ_steps Σ_nodes |u_ref|²)`
-/// is the report's error metric over a whole trajectory, less sensitive to
-/// the phase of an oscillation than the error at the end.
-struct Trajectory {
-    u: Vec<Vec<[f64; 3]>>,
-    norm2: f64,
-}
-
 fn round(mut e: impl Engine, steps: usize, tip_nodes: &[usize], r: &Trajectory) -> Round {
     let mut times = Vec::with_capacity(steps);
     let mut tips = Vec::with_capacity(steps);
@@ -183,14 +175,12 @@ fn round(mut e: impl Engine, steps: usize, tip_nodes: &[usize], r: &Trajectory) 
             times.push(ms);
         }
         tips.push(e.tip(tip_nodes));
-        for (a, b) in e.displacements().iter().zip(&r.u[k]) {
-            err2 += (0..3).map(|c| (a[c] - b[c]).powi(2)).sum::<f64>();
-        }
+        err2 += r.sq_err(k, e.displacements());
     }
     Round {
         times,
         tips,
-        traj_err: (err2 / r.norm2).sqrt(),
+        traj_err: r.relative(err2),
         u: e.displacements(),
     }
 }
@@ -438,15 +428,13 @@ fn main() -> Res<()> {
         let mut r = d.reference();
         let rs = d.ref_settings(f64::from(DT));
         let mut reference_tips = Vec::with_capacity(steps);
-        let mut traj = Trajectory {
-            u: Vec::with_capacity(steps),
-            norm2: 0.0,
-        };
+        // The reference after every step: the trajectory error's yardstick
+        // (less sensitive to the phase of an oscillation than the end).
+        let mut traj = Trajectory::default();
         for _ in 0..steps {
             r.step(&rs);
             reference_tips.push(self::tip(&r.u, &tip));
-            traj.norm2 += r.u.iter().flatten().map(|x| x * x).sum::<f64>();
-            traj.u.push(r.u.clone());
+            traj.push(&r.u);
         }
         let reference_u = r.u.clone();
         let (mut c, mut m, mut f) = (Vec::new(), Vec::new(), Vec::new());

@@ -6,7 +6,7 @@ mod metrics;
 mod plot;
 
 use corofem::{ElementBlock, Method, Node, NodeEntry, NodeWork, ELEMENTS_PER_BLOCK};
-use corofem_bench::reference::{Model, RefMethod};
+use corofem_bench::reference::{Model, RefMethod, Trajectory};
 use corofem_bench::scenes::{self, SceneDef};
 use plot::{loglog, Legend, Series};
 use std::fmt::Write as _;
@@ -526,26 +526,54 @@ struct Run {
     diverged: bool,
 }
 
+/// The speed-against-error grid: time steps, CG budgets and horizons.
+struct Grid {
+    /// Time steps (ms).
+    dts_ms: [f64; 6],
+    /// CG budgets and their labels.
+    cgs: [(u32, &'static str); 7],
+    /// Length of each run (ms).
+    horizon_ms: f64,
+    /// Time step of the fine reference (ms).
+    fine_ms: f64,
+    /// Interval at which runs are compared with the fine reference (ms).
+    sample_ms: f64,
+}
+
+impl Grid {
+    /// Steps of `dt_ms` between two samples.
+    fn sample_every(&self, dt_ms: f64) -> usize {
+        (self.sample_ms / dt_ms).round() as usize
+    }
+}
+
 fn pareto(o: &Opts, md: &mut String) -> Res<()> {
     let meshes = scenes::meshes_dir();
     let mut defs = vec![scenes::beam(), scenes::liver(&meshes)];
     if !o.quick {
         defs.push(scenes::bunny(&meshes));
     }
-    let dts_ms = [0.25, 0.5, 1.0, 2.0, 4.0, 8.0];
-    let cgs: [(u32, &str); 7] = [
-        (1, "1"),
-        (2, "2"),
-        (3, "3"),
-        (5, "5"),
-        (10, "10"),
-        (20, "20"),
-        (2000, "conv"),
-    ];
-    let sample_ms: f64 = 8.0;
-    let horizon_ms: f64 = if o.quick { 80.0 } else { 200.0 };
-    let fine_ms: f64 = if o.quick { 0.25 } else { 0.125 };
-    let samples = (horizon_ms / sample_ms).round() as usize;
+    let grid = Grid {
+        dts_ms: [0.25, 0.5, 1.0, 2.0, 4.0, 8.0],
+        cgs: [
+            (1, "1"),
+            (2, "2"),
+            (3, "3"),
+            (5, "5"),
+            (10, "10"),
+            (20, "20"),
+            (2000, "conv"),
+        ],
+        horizon_ms: if o.quick { 80.0 } else { 200.0 },
+        fine_ms: if o.quick { 0.25 } else { 0.125 },
+        sample_ms: 8.0,
+    };
+    let Grid {
+        horizon_ms,
+        fine_ms,
+        sample_ms,
+        ..
+    } = grid;
     // Each method against the reference of its own rotation.
     let methods = [
         (Method::Qr, RefMethod::Qr, "Qr"),
@@ -565,214 +593,23 @@ fn pareto(o: &Opts, md: &mut String) -> Res<()> {
          time-discretisation error. The QR and polar references are the same scheme with the \
          element rotation of each method (bench/src/reference.rs).\n"
     )?;
-    let mut default_err = Vec::new();
+    let mut defaults = String::new();
     for d in &defs {
         let mut all_runs = Vec::new();
         for &(method, ref_method, mname) in &methods {
-            let total = 1 + dts_ms.len() * (1 + cgs.len());
-            let mut bar = Progress::new(&format!("error: {} {mname}", d.name), total);
-            // Fine reference at the sample times.
-            let sample_of = |dt_ms: f64| (sample_ms / dt_ms).round() as usize;
-            let mut fine = d.reference().with_method(ref_method);
-            let fs = d.ref_settings(fine_ms * 1e-3);
-            let mut fine_samples: Vec<Vec<[f64; 3]>> = Vec::new();
-            let every = sample_of(fine_ms);
-            for s in 1..=samples * every {
-                fine.step(&fs);
-                if s % every == 0 {
-                    fine_samples.push((0..fine.nodes()).map(|i| fine.u[i]).collect());
-                }
-            }
-            bar.tick();
-            let fine_norm2: f64 = fine_samples
-                .iter()
-                .flatten()
-                .map(|u| u.iter().map(|x| x * x).sum::<f64>())
-                .sum();
-            let mut runs = Vec::new();
-            for &dt_ms in &dts_ms {
-                let steps = (horizon_ms / dt_ms).round() as usize;
-                let mut r = d.reference().with_method(ref_method);
-                let rs = d.ref_settings(dt_ms * 1e-3);
-                let mut traj: Vec<Vec<[f64; 3]>> = Vec::with_capacity(steps);
-                for _ in 0..steps {
-                    r.step(&rs);
-                    traj.push(r.u.clone());
-                }
-                bar.tick();
-                let ref_norm2: f64 = traj
-                    .iter()
-                    .flatten()
-                    .map(|u| u.iter().map(|x| x * x).sum::<f64>())
-                    .sum();
-                let every = sample_of(dt_ms);
-                for &(cg, label) in &cgs {
-                    let mut sc = d.core(method, (dt_ms * 1e-3) as f32, cg);
-                    let (mut e_s, mut e_t, mut secs, mut its) = (0.0f64, 0.0f64, 0.0f64, 0u64);
-                    let mut diverged = false;
-                    for (s, ru) in traj.iter().enumerate() {
-                        let t = Instant::now();
-                        let st = corofem_io::fast::step(&mut sc);
-                        secs += t.elapsed().as_secs_f64();
-                        match st {
-                            Ok(st) => its += u64::from(st.cg_iterations),
-                            Err(_) => {
-                                diverged = true;
-                                break;
-                            }
-                        }
-                        for (i, u) in
-                            (0..ru.len()).map(|i| (i, sc.displacement(i).unwrap_or([f32::NAN; 3])))
-                        {
-                            for c in 0..3 {
-                                e_s += (f64::from(u[c]) - ru[i][c]).powi(2);
-                            }
-                        }
-                        if (s + 1) % every == 0 {
-                            let fu = &fine_samples[(s + 1) / every - 1];
-                            for (i, f) in fu.iter().enumerate() {
-                                let u = sc.displacement(i).unwrap_or([f32::NAN; 3]);
-                                for c in 0..3 {
-                                    e_t += (f64::from(u[c]) - f[c]).powi(2);
-                                }
-                            }
-                        }
-                    }
-                    let run = Run {
-                        method: mname,
-                        dt_ms,
-                        cg: label.into(),
-                        iters: its as f64 / steps as f64,
-                        ms_step: secs * 1e3 / steps as f64,
-                        err_solve: (e_s / ref_norm2).sqrt(),
-                        err_total: (e_t / fine_norm2).sqrt(),
-                        diverged,
-                    };
-                    writeln!(
-                        csv,
-                        "{},{},{mname},{},{},{:.2},{:.5},{:.3},{:.4e},{:.4e},{}",
-                        d.name,
-                        d.tets.len(),
-                        dt_ms,
-                        run.cg,
-                        run.iters,
-                        run.ms_step,
-                        run.ms_step * 1e3 / dt_ms,
-                        run.err_solve,
-                        run.err_total,
-                        run.diverged
-                    )?;
-                    if dt_ms == 1.0 && cg == 5 {
-                        default_err.push((
-                            mname,
-                            d.name.clone(),
-                            d.tets.len(),
-                            run.err_solve,
-                            run.err_total,
-                            run.ms_step,
-                        ));
-                    }
-                    runs.push(run);
-                    bar.tick();
-                }
-            }
-            bar.finish();
-            let ok = |r: &&Run| !r.diverged && r.err_solve.is_finite();
-            let mut s1 = Vec::new();
-            let mut s2 = Vec::new();
-            for (k, &dt_ms) in dts_ms.iter().enumerate() {
-                let rs: Vec<&Run> = runs
-                    .iter()
-                    .filter(|r| r.dt_ms == dt_ms)
-                    .filter(ok)
-                    .collect();
-                let labels = if dt_ms == 1.0 {
-                    rs.iter().map(|r| r.cg.clone()).collect()
-                } else {
-                    Vec::new()
-                };
-                s1.push(Series {
-                    name: format!("dt {dt_ms} ms"),
-                    points: rs
-                        .iter()
-                        .map(|r| (r.ms_step, r.err_solve.max(1e-9)))
-                        .collect(),
-                    line: true,
-                    labels: labels.clone(),
-                    color: k,
-                    marker: 0,
-                });
-                s2.push(Series {
-                    name: format!("dt {dt_ms} ms"),
-                    points: rs
-                        .iter()
-                        .map(|r| (r.ms_step * 1e3 / dt_ms, r.err_total.max(1e-9)))
-                        .collect(),
-                    line: true,
-                    labels,
-                    color: k,
-                    marker: 0,
-                });
-            }
-            // Qr keeps the file names of the report before Polar was added.
-            let suffix = if method == Method::Qr { "" } else { "_polar" };
-            loglog(
-                &o.out.join(format!("pareto_solve_{}{suffix}.svg", d.name)),
-                &format!(
-                    "{} ({} tets): truncated-CG error, {mname} (labels: CG iterations)",
+            let runs = method_runs(&grid, d, (method, ref_method, mname), &mut csv)?;
+            method_report(o, md, &grid, d, method, &runs)?;
+            if let Some(r) = runs.iter().find(|r| r.dt_ms == 1.0 && r.cg == "5") {
+                writeln!(
+                    defaults,
+                    "| {} | {} | {mname} | {:.3} | {:.2e} | {:.2e} |",
                     d.name,
-                    d.tets.len()
-                ),
-                "ms per step",
-                "relative RMS position error vs f64 reference, same dt",
-                &s1,
-                Legend::UpperRight,
-            )?;
-            loglog(
-                &o.out.join(format!("pareto_total_{}{suffix}.svg", d.name)),
-                &format!(
-                    "{} ({} tets): total error, {mname} (labels: CG iterations)",
-                    d.name,
-                    d.tets.len()
-                ),
-                "ms of computation per simulated second",
-                &format!("relative RMS error vs f64 reference, dt {fine_ms} ms"),
-                &s2,
-                Legend::UpperRight,
-            )?;
-            writeln!(
-                md,
-                "### {} ({} tets, {} nodes), {mname}\n",
-                d.name,
-                d.tets.len(),
-                d.nodes.len()
-            )?;
-            writeln!(
-                md,
-                "![](pareto_solve_{0}{suffix}.svg)\n![](pareto_total_{0}{suffix}.svg)\n",
-                d.name
-            )?;
-            writeln!(
-                md,
-                "Solve error, {mname} (rows: dt in ms; columns: CG iterations):\n"
-            )?;
-            write!(md, "| dt \\ CG |")?;
-            for (_, l) in &cgs {
-                write!(md, " {l} |")?;
+                    d.tets.len(),
+                    r.ms_step,
+                    r.err_solve,
+                    r.err_total
+                )?;
             }
-            writeln!(md, "\n|---|{}", "---|".repeat(cgs.len()))?;
-            for &dt_ms in &dts_ms {
-                write!(md, "| {dt_ms} |")?;
-                for r in runs.iter().filter(|r| r.dt_ms == dt_ms) {
-                    if r.diverged {
-                        write!(md, " diverged |")?;
-                    } else {
-                        write!(md, " {:.1e} |", r.err_solve)?;
-                    }
-                }
-                writeln!(md)?;
-            }
-            writeln!(md)?;
             all_runs.extend(runs);
         }
         methods_plot(o, md, d, &all_runs, fine_ms)?;
@@ -781,10 +618,212 @@ fn pareto(o: &Opts, md: &mut String) -> Res<()> {
     writeln!(md, "### Default settings (5 CG iterations, dt 1 ms)\n")?;
     writeln!(
         md,
-        "| scene | tets | method | ms/step | solve error | total error |\n|---|---|---|---|---|---|"
+        "| scene | tets | method | ms/step | solve error | total error |\n|---|---|---|---|---|---|\n{defaults}"
     )?;
-    for (m, n, t, es, et, ms) in default_err {
-        writeln!(md, "| {n} | {t} | {m} | {ms:.3} | {es:.2e} | {et:.2e} |")?;
+    Ok(())
+}
+
+/// Every (dt, CG) run of one scene and method against the f64 references of
+/// that method (one per dt, and a fine one), each run's row appended to
+/// `csv`.
+fn method_runs(
+    grid: &Grid,
+    d: &SceneDef,
+    (method, ref_method, mname): (Method, RefMethod, &'static str),
+    csv: &mut String,
+) -> Res<Vec<Run>> {
+    let total = 1 + grid.dts_ms.len() * (1 + grid.cgs.len());
+    let mut bar = Progress::new(&format!("error: {} {mname}", d.name), total);
+    // Fine reference at the sample times.
+    let mut fine = d.reference().with_method(ref_method);
+    let fs = d.ref_settings(grid.fine_ms * 1e-3);
+    let mut fine_samples = Trajectory::default();
+    let every = grid.sample_every(grid.fine_ms);
+    let samples = (grid.horizon_ms / grid.sample_ms).round() as usize;
+    for s in 1..=samples * every {
+        fine.step(&fs);
+        if s % every == 0 {
+            fine_samples.push(&fine.u);
+        }
+    }
+    bar.tick();
+    let mut runs = Vec::new();
+    for &dt_ms in &grid.dts_ms {
+        let steps = (grid.horizon_ms / dt_ms).round() as usize;
+        let mut r = d.reference().with_method(ref_method);
+        let rs = d.ref_settings(dt_ms * 1e-3);
+        let mut traj = Trajectory::default();
+        for _ in 0..steps {
+            r.step(&rs);
+            traj.push(&r.u);
+        }
+        bar.tick();
+        let every = grid.sample_every(dt_ms);
+        for &(cg, label) in &grid.cgs {
+            let mut sc = d.core(method, (dt_ms * 1e-3) as f32, cg);
+            let (mut e_s, mut e_t, mut secs, mut its) = (0.0f64, 0.0f64, 0.0f64, 0u64);
+            let mut diverged = false;
+            for s in 0..steps {
+                let t = Instant::now();
+                let st = corofem_io::fast::step(&mut sc);
+                secs += t.elapsed().as_secs_f64();
+                match st {
+                    Ok(st) => its += u64::from(st.cg_iterations),
+                    Err(_) => {
+                        diverged = true;
+                        break;
+                    }
+                }
+                let u = || {
+                    (0..sc.node_count())
+                        .map(|i| sc.displacement(i).unwrap_or([f32::NAN; 3]).map(f64::from))
+                };
+                e_s += traj.sq_err(s, u());
+                if (s + 1) % every == 0 {
+                    e_t += fine_samples.sq_err((s + 1) / every - 1, u());
+                }
+            }
+            let run = Run {
+                method: mname,
+                dt_ms,
+                cg: label.into(),
+                iters: its as f64 / steps as f64,
+                ms_step: secs * 1e3 / steps as f64,
+                err_solve: traj.relative(e_s),
+                err_total: fine_samples.relative(e_t),
+                diverged,
+            };
+            writeln!(
+                csv,
+                "{},{},{mname},{},{},{:.2},{:.5},{:.3},{:.4e},{:.4e},{}",
+                d.name,
+                d.tets.len(),
+                dt_ms,
+                run.cg,
+                run.iters,
+                run.ms_step,
+                run.ms_step * 1e3 / dt_ms,
+                run.err_solve,
+                run.err_total,
+                run.diverged
+            )?;
+            runs.push(run);
+            bar.tick();
+        }
+    }
+    bar.finish();
+    Ok(runs)
+}
+
+/// The plots and the solve-error table of one scene and method.
+fn method_report(
+    o: &Opts,
+    md: &mut String,
+    grid: &Grid,
+    d: &SceneDef,
+    method: Method,
+    runs: &[Run],
+) -> Res<()> {
+    let Some(mname) = runs.first().map(|r| r.method) else {
+        return Ok(());
+    };
+    let ok = |r: &&Run| !r.diverged && r.err_solve.is_finite();
+    let mut s1 = Vec::new();
+    let mut s2 = Vec::new();
+    for (k, &dt_ms) in grid.dts_ms.iter().enumerate() {
+        let rs: Vec<&Run> = runs
+            .iter()
+            .filter(|r| r.dt_ms == dt_ms)
+            .filter(ok)
+            .collect();
+        let labels = if dt_ms == 1.0 {
+            rs.iter().map(|r| r.cg.clone()).collect()
+        } else {
+            Vec::new()
+        };
+        s1.push(Series {
+            name: format!("dt {dt_ms} ms"),
+            points: rs
+                .iter()
+                .map(|r| (r.ms_step, r.err_solve.max(1e-9)))
+                .collect(),
+            line: true,
+            labels: labels.clone(),
+            color: k,
+            marker: 0,
+        });
+        s2.push(Series {
+            name: format!("dt {dt_ms} ms"),
+            points: rs
+                .iter()
+                .map(|r| (r.ms_step * 1e3 / dt_ms, r.err_total.max(1e-9)))
+                .collect(),
+            line: true,
+            labels,
+            color: k,
+            marker: 0,
+        });
+    }
+    // Qr keeps the file names of the report before Polar was added.
+    let suffix = if method == Method::Qr { "" } else { "_polar" };
+    loglog(
+        &o.out.join(format!("pareto_solve_{}{suffix}.svg", d.name)),
+        &format!(
+            "{} ({} tets): truncated-CG error, {mname} (labels: CG iterations)",
+            d.name,
+            d.tets.len()
+        ),
+        "ms per step",
+        "relative RMS position error vs f64 reference, same dt",
+        &s1,
+        Legend::UpperRight,
+    )?;
+    loglog(
+        &o.out.join(format!("pareto_total_{}{suffix}.svg", d.name)),
+        &format!(
+            "{} ({} tets): total error, {mname} (labels: CG iterations)",
+            d.name,
+            d.tets.len()
+        ),
+        "ms of computation per simulated second",
+        &format!(
+            "relative RMS error vs f64 reference, dt {} ms",
+            grid.fine_ms
+        ),
+        &s2,
+        Legend::UpperRight,
+    )?;
+    writeln!(
+        md,
+        "### {} ({} tets, {} nodes), {mname}\n",
+        d.name,
+        d.tets.len(),
+        d.nodes.len()
+    )?;
+    writeln!(
+        md,
+        "![](pareto_solve_{0}{suffix}.svg)\n![](pareto_total_{0}{suffix}.svg)\n",
+        d.name
+    )?;
+    writeln!(
+        md,
+        "Solve error, {mname} (rows: dt in ms; columns: CG iterations):\n"
+    )?;
+    write!(md, "| dt \\ CG |")?;
+    for (_, l) in &grid.cgs {
+        write!(md, " {l} |")?;
+    }
+    writeln!(md, "\n|---|{}", "---|".repeat(grid.cgs.len()))?;
+    for &dt_ms in &grid.dts_ms {
+        write!(md, "| {dt_ms} |")?;
+        for r in runs.iter().filter(|r| r.dt_ms == dt_ms) {
+            if r.diverged {
+                write!(md, " diverged |")?;
+            } else {
+                write!(md, " {:.1e} |", r.err_solve)?;
+            }
+        }
+        writeln!(md)?;
     }
     writeln!(md)?;
     Ok(())

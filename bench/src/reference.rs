@@ -111,6 +111,47 @@ fn inverse<T: Float>(m: [[T; 3]; 3]) -> ([[T; 3]; 3], T) {
     (inv, det)
 }
 
+/// A reference trajectory: node displacements (m) at a series of times, and
+/// their squared sum, for the error metric of the report and of the peers
+/// comparison: `sqrt(Σ_k Σ_i |u_ik − u_ref,ik|² / Σ_k Σ_i |u_ref,ik|²)`, the
+/// position error over the whole trajectory relative to the RMS reference
+/// displacement.
+#[derive(Clone, Debug, Default)]
+pub struct Trajectory {
+    /// Node displacements at each recorded time (m).
+    pub u: Vec<Vec<V<f64>>>,
+    /// `Σ_k Σ_i |u_ref,ik|²` (m²).
+    pub norm2: f64,
+}
+
+impl Trajectory {
+    /// Records the displacements `u` (m) of the next time.
+    pub fn push(&mut self, u: &[V<f64>]) {
+        self.norm2 += u.iter().map(|&v| dot(v, v)).sum::<f64>();
+        self.u.push(u.to_vec());
+    }
+
+    /// `Σ_i |u_i − u_ref,ik|²` (m²) of displacements `u` at recorded time
+    /// `k`; NaN if `k` was not recorded.
+    pub fn sq_err(&self, k: usize, u: impl IntoIterator<Item = V<f64>>) -> f64 {
+        let Some(r) = self.u.get(k) else {
+            return f64::NAN;
+        };
+        u.into_iter()
+            .zip(r)
+            .map(|(a, &b)| {
+                let e = sub(a, b);
+                dot(e, e)
+            })
+            .sum()
+    }
+
+    /// The relative error of a run whose [`Self::sq_err`] sum is `sq`.
+    pub fn relative(&self, sq: f64) -> f64 {
+        (sq / self.norm2).sqrt()
+    }
+}
+
 /// Block CSR matrix with 3×3 blocks (row-major inside a block).
 #[derive(Clone, Debug)]
 pub struct Bsr<T> {
