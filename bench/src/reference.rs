@@ -89,9 +89,7 @@ fn frame<T: Float>(ab: V<T>, ac: V<T>, ad: V<T>) -> ([V<T>; 3], [T; 6]) {
 fn closest_rotation(f: [[f64; 3]; 3]) -> [[f64; 3]; 3] {
     let m = Matrix3::from_fn(|r, c| f[r][c]);
     let svd = m.svd(true, true);
-    let (Some(mut u), Some(v_t)) = (svd.u, svd.v_t) else {
-        return [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
-    };
+    let (mut u, v_t) = (svd.u.expect("asked for U"), svd.v_t.expect("asked for Vᵀ"));
     if (u * v_t).determinant() < 0.0 {
         let k = svd.singular_values.imin();
         u.column_mut(k).neg_mut();
@@ -100,15 +98,14 @@ fn closest_rotation(f: [[f64; 3]; 3]) -> [[f64; 3]; 3] {
     [0, 1, 2].map(|i| [r[(i, 0)], r[(i, 1)], r[(i, 2)]])
 }
 
-/// The inverse of the 3×3 matrix `m` (rows) and its determinant.
-fn inverse<T: Float>(m: [[T; 3]; 3]) -> ([[T; 3]; 3], T) {
+/// The inverse of the 3×3 matrix `m` (rows).
+fn inverse<T: Float>(m: [[T; 3]; 3]) -> [[T; 3]; 3] {
     let c0 = cross(m[1], m[2]);
     let c1 = cross(m[2], m[0]);
     let c2 = cross(m[0], m[1]);
     let det = dot(m[0], c0);
     // Columns of the inverse are the cofactor rows over det.
-    let inv = [0, 1, 2].map(|r| [c0[r] / det, c1[r] / det, c2[r] / det]);
-    (inv, det)
+    [0, 1, 2].map(|r| [c0[r] / det, c1[r] / det, c2[r] / det])
 }
 
 /// A reference trajectory: node displacements (m) at a series of times, and
@@ -197,8 +194,8 @@ pub struct Model<T> {
     /// The element rotation (default [`RefMethod::Qr`]; see [`Model::with_method`]).
     pub method: RefMethod,
     /// Per element, the inverse of the rest edge matrix `D₀` (columns
-    /// `b − a, c − a, d − a`) and `det D₀ = 6 V₀`, for [`RefMethod::Polar`].
-    rest_inv: Vec<([[T; 3]; 3], T)>,
+    /// `b − a, c − a, d − a`), for [`RefMethod::Polar`].
+    rest_inv: Vec<[[T; 3]; 3]>,
     /// `[λ', μ'] = [λ, μ] / (36 V₀)` per element.
     pub lame: Vec<[T; 2]>,
     /// Lumped masses (kg).
@@ -397,7 +394,10 @@ impl<T: Float> Model<T> {
                 RefMethod::Polar => {
                     // F = D D₀⁻¹; R the closest proper rotation; the frame
                     // is the rest shape rotated by R (world → frame: Rᵀ).
-                    let (inv, six_v0) = self.rest_inv[e];
+                    let inv = self.rest_inv[e];
+                    // det D₀ = 6 V₀ = xb·yc·zd of the rest QR coordinates.
+                    let l0 = self.rest[e];
+                    let six_v0 = l0[0] * l0[2] * l0[5];
                     let d = [edge(1), edge(2), edge(3)];
                     let f = [0, 1, 2].map(|r| {
                         [0, 1, 2].map(|c| {

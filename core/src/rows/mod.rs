@@ -254,11 +254,14 @@ unsafe fn gather4<M: Moves, R: Row>(slots: &[R::Slot], c: &Corners<R::Slot>) -> 
 }
 
 /// `slot.R += [x, y, z]` for the rows `rows[k][j] = [x, y, z, −0]` of the
-/// nodes of `corners` in lanes `first + j`, lane after lane (element order), corners `a, b, c, d`
-/// in each: the sums the scalar code makes, in its order, each `field +
-/// value`; the fourth float (the next field) gets `−0.0` added, which
-/// leaves its bits (see the module's documentation). Nothing if `slots` is
-/// shorter than `corners` needs. (SSE only: every x86_64 CPU has it.)
+/// nodes of `corners` in lanes `first + j`, lane after lane (element
+/// order), corners `a, b, c, d` in each: the sums the scalar code makes, in
+/// its order, each `field + value`; the fourth float (the next field) gets
+/// `−0.0` added, which leaves its bits (see the module's documentation).
+/// Nothing if `slots` is shorter than `corners` needs. (SSE only: every
+/// x86_64 CPU has it.) `first` and `N` are constants at every call
+/// (`0`/`8`, `0`/`4`, `4`/`4`); the AVX2 step kept its time when the lane
+/// checks were added.
 #[inline(always)]
 fn scatter<R: Row, const N: usize>(
     slots: &mut [R::Slot],
