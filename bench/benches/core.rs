@@ -76,7 +76,7 @@ fn steps(c: &mut Criterion) {
         // a step does not depend on where it is in that swing.
         let mut s = def.core(method, 1e-3, cg);
         group.bench_function(format!("{method:?}, {cg} CG"), |b| {
-            b.iter(|| black_box(corofem_io::fast::step(&mut s).expect("finite")))
+            b.iter(|| black_box(s.step().expect("finite")))
         });
     }
     group.finish();

@@ -198,7 +198,7 @@ impl Corofem {
 
 impl Engine for Corofem {
     fn step(&mut self) {
-        corofem_io::fast::step(&mut self.0).expect("corofem step");
+        self.0.step().expect("corofem step");
     }
     fn displacements(&self) -> Vec<[f64; 3]> {
         (0..self.0.node_count())

@@ -437,7 +437,7 @@ fn drift(def: &SceneDef, method: Method, cg: u32, dt: f32, steps: usize) -> Drif
     let (p0, l0, ps, ls) = momenta(&sc, c0);
     let mut f = vec![[0.0f32; 3]; n];
     for _ in 0..steps {
-        match corofem_io::fast::step(&mut sc) {
+        match sc.step() {
             Ok(st) => d.inverted = d.inverted.max(st.inverted),
             Err(_) => {
                 d.failed = true;

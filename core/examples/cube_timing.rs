@@ -7,16 +7,16 @@
 //! 4–6 % slower on this scene (docs/bench.md).
 //!
 //! ```sh
-//! cargo run --release -p corofem --example cube_timing
+//! cargo run --release -p corofem --features std --example cube_timing
 //! ```
 //!
 //! Prints the fastest of 20 rounds of 50 steps (ms per step, wall clock) for
-//! the baseline step and, where the CPU has AVX2, for `Scene::step_avx2`, and
+//! the baseline step and, where the CPU has AVX2, for the AVX2 step, and
 //! whether both reach the same bits.
 
 use corofem::{
-    element_blocks, BoxMesh, BuildOptions, ElementBlock, Material, Method, Node, NodeWork, Scene,
-    SliceStorage, Storage, ELEMENTS_PER_BLOCK,
+    element_blocks, BoxMesh, BuildOptions, ElementBlock, InstructionSet, Material, Method, Node,
+    NodeWork, Scene, SliceStorage, ELEMENTS_PER_BLOCK,
 };
 use std::time::Instant;
 
@@ -43,7 +43,7 @@ fn main() {
     let mut ns = vec![Node::EMPTY; n];
     let mut ws = vec![NodeWork::EMPTY; n];
     let mut es = vec![ElementBlock::EMPTY; element_blocks(t)];
-    let mut run = |avx2: bool| {
+    let mut run = |isa: InstructionSet| {
         let mut scene = Scene::with_storage(SliceStorage::new(&mut ns, &mut ws, &mut es));
         let material = Material {
             young: 1.0e6,
@@ -54,6 +54,7 @@ fn main() {
             .build(&nodes, &tets, &material, BuildOptions::default())
             .expect("build");
         scene.fix_nodes(&fixed).expect("fix");
+        scene.set_instruction_set(Some(isa)).expect("supported");
         let mut s = *scene.settings();
         s.method = Method::Qr;
         s.dt = 1e-3;
@@ -65,7 +66,7 @@ fn main() {
         for _ in 0..ROUNDS {
             let start = Instant::now();
             for _ in 0..STEPS {
-                step(&mut scene, avx2).expect("finite");
+                scene.step().expect("finite");
             }
             best = best.min(start.elapsed().as_secs_f64() * 1e3 / STEPS as f64);
         }
@@ -74,10 +75,10 @@ fn main() {
     // 72 bytes per element with `qr` alone, 124 with every feature.
     let per_element = std::mem::size_of::<ElementBlock>() / ELEMENTS_PER_BLOCK;
     println!("{t} tets, {n} nodes, Qr, 5 CG iterations, dt 1 ms, {per_element} bytes per element");
-    let (base, base_hash) = run(false);
+    let (base, base_hash) = run(InstructionSet::Baseline);
     println!("baseline step (SSE2): {base:.3} ms/step");
-    if has_avx2() {
-        let (fast, fast_hash) = run(true);
+    if InstructionSet::Avx2.is_supported() {
+        let (fast, fast_hash) = run(InstructionSet::Avx2);
         println!(
             "AVX2 step:            {fast:.3} ms/step, same bits as the baseline: {}",
             if fast_hash == base_hash { "yes" } else { "NO" }
@@ -88,27 +89,4 @@ fn main() {
     } else {
         println!("AVX2 step: this CPU has no AVX2");
     }
-}
-
-/// Whether this CPU has AVX2.
-fn has_avx2() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    return std::is_x86_feature_detected!("avx2");
-    #[cfg(not(target_arch = "x86_64"))]
-    false
-}
-
-/// One step, compiled for AVX2 if `avx2` (which only [`has_avx2`] sets).
-fn step<S: Storage>(
-    scene: &mut Scene<S>,
-    avx2: bool,
-) -> Result<corofem::StepStats, corofem::StepError> {
-    #[cfg(target_arch = "x86_64")]
-    if avx2 {
-        // SAFETY: `avx2` is true only where `has_avx2()` found AVX2.
-        #[allow(unsafe_code)]
-        return unsafe { scene.step_avx2() };
-    }
-    let _ = avx2;
-    scene.step()
 }

@@ -89,6 +89,12 @@ pub enum Error {
         /// The parameter's name, as in the settings struct.
         name: &'static str,
     },
+    /// The instruction set asked for is not supported by this CPU (or, in a
+    /// build without the `std` feature, was not enabled at build time).
+    UnsupportedInstructionSet {
+        /// The instruction set asked for.
+        instruction_set: crate::InstructionSet,
+    },
     /// The operation needs a built scene.
     NotBuilt,
     /// A static solve needs something that holds the body: fixed nodes or the tool.
@@ -138,6 +144,11 @@ impl fmt::Display for Error {
             Error::NodeOutOfRange { node } => write!(f, "node {node} does not exist"),
             Error::ElementOutOfRange { element } => write!(f, "element {element} does not exist"),
             Error::InvalidParameter { name } => write!(f, "parameter `{name}` is out of range"),
+            Error::UnsupportedInstructionSet { instruction_set } => write!(
+                f,
+                "instruction set `{}` is not supported here",
+                instruction_set.name()
+            ),
             Error::NotBuilt => write!(f, "the scene has not been built"),
             Error::Unconstrained => {
                 write!(f, "a static solve needs fixed nodes or a grabbing tool")

@@ -75,10 +75,10 @@
 #![no_std]
 // No unsafe code, except the square root instruction (math.rs: SSE's
 // `sqrtss` intrinsic on x86, the FPU's `vsqrt.f32` behind `fpu-sqrt`), the
-// stiffness product in FPU assembly behind `fpu-product` (fpu_product.rs), the
-// SSE2 and AVX2 moves between node storage and lanes (rows/, x86_64 only,
-// 16-byte loads and stores inside checked slots) and the calls into them,
-// each allowed where it is and nowhere else.
+// stiffness product in FPU assembly behind `fpu-product` (fpu_product.rs) and
+// the x86_64 backends (backend/: SSE2 and AVX2 intrinsics, 16-byte loads and
+// stores inside checked slots, AVX2 only behind a token that proves the CPU
+// has it), each allowed where it is and nowhere else.
 #![deny(unsafe_code)]
 #![warn(missing_docs)]
 #![cfg_attr(docsrs, feature(doc_cfg))]
@@ -89,6 +89,11 @@
 // Cortex-M4F): the same code serves both, on purpose.
 #![allow(clippy::modulo_one)]
 
+// `std` only to ask the CPU which instruction sets it has (feature `std`).
+#[cfg(any(feature = "std", test))]
+extern crate std;
+
+mod backend;
 mod cg;
 mod element;
 mod error;
@@ -97,8 +102,6 @@ mod material;
 mod math;
 mod mesh_gen;
 mod pass;
-#[cfg(target_arch = "x86_64")]
-mod rows;
 mod scene;
 mod settings;
 mod step;
@@ -120,6 +123,7 @@ mod statics;
 #[cfg(feature = "tool")]
 mod tool;
 
+pub use backend::InstructionSet;
 pub use element::{element_blocks, ElementBlock, Method};
 /// Elements per [`ElementBlock`] on this target: 8 where the element passes
 /// run in vector lanes (x86, x86_64, AArch64, wasm32 with `simd128`), 1

@@ -1,17 +1,23 @@
 //! Element passes: gather the four nodes of each element, do the local maths,
 //! scatter-add the results into the nodes — in element order, so the sums are
-//! the same on every target. (Element order, here and in `crate::rows`, is
-//! the order of the storage slots, an interleaving of the scene's elements
-//! that every target shares: `element::block::slot`.)
+//! the same on every target. (Element order is the order of the storage
+//! slots, an interleaving of the scene's elements that every target shares:
+//! `element::block::slot`.)
+//!
+//! Written once over a [`Backend`]: a block of elements is gathered into
+//! lanes, computed on every lane at once and scattered with the backend's
+//! moves; the step instantiates these passes once per instruction set.
+//! One element at a time is the other path: on targets with one lane per
+//! block (a Cortex-M4F), and for a lane whose batched kernel needs a
+//! fallback (a degenerate QR frame, an irregular polar rotation search).
 
+use crate::backend::{Backend, NodeU, NodeV, NodeX0, Portable, Row, WorkD, WorkQ, WorkR};
 #[cfg(any(feature = "qr", feature = "qr-rest-b"))]
 use crate::element::qr;
 use crate::element::{self, hform, lane3, Batch, ElementBlock, ElementForces, Method};
 use crate::lanes::LANES;
 use crate::math::Real;
 use crate::math::{add, neg, sub, Vec3};
-#[cfg(target_arch = "x86_64")]
-use crate::rows::{Avx2, Moves, Sse2};
 use crate::storage::{Node, NodeWork};
 
 /// Totals of a force pass.
@@ -30,13 +36,38 @@ pub(crate) trait Sink {
     fn add_force(&mut self, i: usize, f: Vec3);
     /// Adds node `i`'s stiffness product `kv` (`−K v`, N).
     fn add_kv(&mut self, i: usize, kv: Vec3);
-    /// The node work, if this sink is [`IntoWork`] (which the x86_64 passes
-    /// then write directly as rows, with the same sums).
-    #[cfg(target_arch = "x86_64")]
-    fn work(&mut self) -> Option<&mut [NodeWork]>;
+
+    /// Adds a whole block's contributions: the forces `f` on `b, c, d` of
+    /// its lanes (node `a` getting `−(f_b + f_c + f_d)`), then,
+    /// with `WITH_KV`, the `−K v` that `kv()` returns, called once the
+    /// forces are in (so that its inputs are not kept through them). Each
+    /// kind of sum in element order. Returns `false`, having done nothing,
+    /// if the block's node indices are out of range.
+    #[inline(always)]
+    fn add_block<B: Backend, const WITH_KV: bool>(
+        &mut self,
+        b: B,
+        ids: &[[u16; LANES]; 4],
+        f: &[[Batch; 3]; 3],
+        kv: impl FnOnce() -> [[Batch; 3]; 3],
+    ) -> bool {
+        let _ = b;
+        let node = |j: usize| ids.map(|c| c.get(j).copied().unwrap_or(0));
+        for j in 0..LANES {
+            scatter(node(j), &lane3(f, j), |i, v| self.add_force(i, v));
+        }
+        if WITH_KV {
+            let kv = kv();
+            for j in 0..LANES {
+                scatter(node(j), &lane3(&kv, j), |i, v| self.add_kv(i, v));
+            }
+        }
+        true
+    }
 }
 
-/// The step's sink: `r += f`, `q += kv` of each node.
+/// The step's sink: `r += f`, `q += kv` of each node; a block's sums go
+/// straight into the node work with the backend's moves.
 pub(crate) struct IntoWork<'a>(pub(crate) &'a mut [NodeWork]);
 
 impl Sink for IntoWork<'_> {
@@ -52,10 +83,22 @@ impl Sink for IntoWork<'_> {
             w.q = add(w.q, kv);
         }
     }
-    #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    fn work(&mut self) -> Option<&mut [NodeWork]> {
-        Some(self.0)
+    fn add_block<B: Backend, const WITH_KV: bool>(
+        &mut self,
+        b: B,
+        ids: &[[u16; LANES]; 4],
+        f: &[[Batch; 3]; 3],
+        kv: impl FnOnce() -> [[Batch; 3]; 3],
+    ) -> bool {
+        let Some(c) = b.corners::<NodeWork>(ids, self.0.len()) else {
+            return false;
+        };
+        add_to_nodes::<B, WorkR>(b, self.0, &c, f);
+        if WITH_KV {
+            add_to_nodes::<B, WorkQ>(b, self.0, &c, &kv());
+        }
+        true
     }
 }
 
@@ -73,11 +116,23 @@ impl<F: FnMut(usize, Vec3), K: FnMut(usize, Vec3)> Sink for Each<F, K> {
     fn add_kv(&mut self, i: usize, kv: Vec3) {
         (self.1)(i, kv);
     }
-    #[cfg(target_arch = "x86_64")]
-    #[inline(always)]
-    fn work(&mut self) -> Option<&mut [NodeWork]> {
-        None
-    }
+}
+
+/// Adds each element's `[f_b, f_c, f_d]` (lanes) and node `a`'s share
+/// `−(f_b + f_c + f_d)` into the field `R` of its four nodes, in element
+/// order: the sums of [`scatter`], with its bits.
+#[inline(always)]
+fn add_to_nodes<B: Backend, R: Row<Slot = NodeWork>>(
+    b: B,
+    work: &mut [NodeWork],
+    c: &B::Corners<NodeWork>,
+    f: &[[Batch; 3]; 3],
+) {
+    // Node a's share in lanes too, before the fence (after it, LLVM
+    // computed it half in 4-wide, half in 2-wide pieces).
+    let mut fa = [share_of_a(f), f[0], f[1], f[2]];
+    b.fence(&mut fa);
+    b.scatter::<R>(work, c, &fa);
 }
 
 /// References to the four nodes of an element, or `None` if an index is out
@@ -97,32 +152,6 @@ fn diffs<T: Real>(x: &[[T; 3]; 4]) -> [[T; 3]; 3] {
     [sub(x[1], x[0]), sub(x[2], x[0]), sub(x[3], x[0])]
 }
 
-/// Visits the slot of every corner `k` of every lane `j < lanes` of a
-/// block, `put(k, j, slot)`, and returns which lanes are present: used, with
-/// every node index in range (ruled out by `build`; an absent lane is
-/// computed and neither finished nor scattered). Corner by corner, so that a
-/// corner's lanes are filled one after the other.
-#[inline(always)]
-fn gather_corners<T>(
-    slots: &[T],
-    blk: &ElementBlock,
-    lanes: usize,
-    mut put: impl FnMut(usize, usize, &T),
-) -> [bool; LANES] {
-    // Compared lane by lane (written as a loop setting the first `lanes`
-    // flags, it was a call to `memset` per block).
-    let mut present: [bool; LANES] = core::array::from_fn(|j| j < lanes);
-    for (k, ids) in blk.nodes.iter().enumerate() {
-        for (j, (id, p)) in ids.iter().zip(present.iter_mut()).enumerate().take(lanes) {
-            match slots.get(usize::from(*id)) {
-                Some(slot) => put(k, j, slot),
-                None => *p = false,
-            }
-        }
-    }
-    present
-}
-
 /// Node `a`'s share `−(f_b + f_c + f_d)` of an element's `[f_b, f_c, f_d]`,
 /// which makes the element's net contribution zero exactly.
 #[inline(always)]
@@ -138,6 +167,30 @@ fn scatter(ids: [u16; 4], f: &[Vec3; 3], mut add_to: impl FnMut(usize, Vec3)) {
     add_to(usize::from(ids[1]), f[0]);
     add_to(usize::from(ids[2]), f[1]);
     add_to(usize::from(ids[3]), f[2]);
+}
+
+/// Field `R` of the four corners of the block `c`, in lanes:
+/// `[corner][component]`.
+#[inline(always)]
+fn gather4<B: Backend, R: Row>(
+    b: B,
+    slots: &[R::Slot],
+    c: &B::Corners<R::Slot>,
+) -> [[Batch; 3]; 4] {
+    [
+        b.gather::<R>(slots, c, 0),
+        b.gather::<R>(slots, c, 1),
+        b.gather::<R>(slots, c, 2),
+        b.gather::<R>(slots, c, 3),
+    ]
+}
+
+/// The velocities of the four corners of the block `c`, in lanes.
+#[inline(always)]
+fn velocities<B: Backend>(b: B, nodes: &[Node], c: &B::Corners<Node>) -> [[Batch; 3]; 4] {
+    let mut vel = gather4::<B, NodeV>(b, nodes, c);
+    b.fence(&mut vel);
+    vel
 }
 
 /// Whole blocks of `count` elements, and the lanes used in the block after
@@ -156,11 +209,11 @@ fn split(count: usize) -> (usize, usize) {
 ///
 /// `sink` receives each contribution, element after element, in element
 /// order, whether or not elements are batched. `per_young` is the body's
-/// [`lame_per_young`](crate::material::lame_per_young). On x86_64, whole
-/// blocks move node vectors as rows (`crate::rows`), with AVX2 if `AVX2`,
-/// else with SSE2; same bits.
+/// [`lame_per_young`](crate::material::lame_per_young). Node vectors move
+/// with the backend `b`; every backend gives the same bits.
 #[inline(always)]
-pub(crate) fn forces<const WITH_KV: bool, const COMMIT: bool, const AVX2: bool>(
+pub(crate) fn forces<B: Backend, const WITH_KV: bool, const COMMIT: bool>(
+    b: B,
     method: Method,
     per_young: [f32; 2],
     nodes: &[Node],
@@ -168,7 +221,8 @@ pub(crate) fn forces<const WITH_KV: bool, const COMMIT: bool, const AVX2: bool>(
     count: usize,
     sink: impl Sink,
 ) -> PassTotals {
-    let mut pass = ForcePass::<_, AVX2> {
+    let mut pass = ForcePass {
+        b,
         method,
         per_young,
         nodes,
@@ -188,10 +242,10 @@ pub(crate) fn forces<const WITH_KV: bool, const COMMIT: bool, const AVX2: bool>(
 }
 
 /// [`forces`] without `−K v`, for the static solver (`commit`: the elements
-/// keep their new gradients) and the diagnostics (elements untouched): not
-/// generic, so compiled once in this crate rather than in every crate that
-/// calls a generic `Scene<S>` method using it; the contributions go through
-/// a `dyn` callback (this pass is not in the step).
+/// keep their new gradients) and the diagnostics (elements untouched), with
+/// the baseline backend: not generic, so compiled once in this crate rather
+/// than in every crate that calls a generic `Scene<S>` method using it; the
+/// contributions go through a `dyn` callback (this pass is not in the step).
 #[cfg(any(feature = "statics", feature = "diagnostics"))]
 pub(crate) fn forces_outside_step(
     commit: bool,
@@ -202,16 +256,19 @@ pub(crate) fn forces_outside_step(
     count: usize,
     add_to: &mut dyn FnMut(usize, Vec3),
 ) -> PassTotals {
+    let b = crate::backend::BASELINE;
     let sink = Each(add_to, |_, _| {});
     if commit {
-        forces::<false, true, false>(method, per_young, nodes, elems, count, sink)
+        forces::<_, false, true>(b, method, per_young, nodes, elems, count, sink)
     } else {
-        forces::<false, false, false>(method, per_young, nodes, elems, count, sink)
+        forces::<_, false, false>(b, method, per_young, nodes, elems, count, sink)
     }
 }
 
-/// What every block of a force pass shares (`AVX2` as in [`forces`]).
-struct ForcePass<'a, S, const AVX2: bool> {
+/// What every block of a force pass shares.
+struct ForcePass<'a, B, S> {
+    /// How node vectors move.
+    b: B,
     method: Method,
     /// The body's [`lame_per_young`](crate::material::lame_per_young).
     per_young: [f32; 2],
@@ -263,7 +320,6 @@ struct LaneForces {
     #[cfg(feature = "polar")]
     rot: [Batch; 4],
 }
-
 /// The QR kernel in lanes (`CURRENT_B` as in [`qr::forces`]).
 #[cfg(any(feature = "qr", feature = "qr-rest-b"))]
 struct QrLanes<const CURRENT_B: bool>;
@@ -345,59 +401,55 @@ impl LaneKernel for PolarLanes {
     }
 }
 
-// Methods: functions rather than closures, inlined at each call, or a host
-// that compiles the step for another instruction set would run them compiled
-// for the baseline.
-impl<S: Sink, const AVX2: bool> ForcePass<'_, S, AVX2> {
-    /// The first `lanes` elements of a block, batched where the target
-    /// allows it.
+// Methods: functions rather than closures, inlined at each call, so that in
+// a step compiled for another instruction set (a `#[target_feature]`
+// function) they are compiled for it too.
+impl<B: Backend, S: Sink> ForcePass<'_, B, S> {
+    /// The first `lanes` elements of a block: batched where the target
+    /// allows it and the block is whole, else one at a time (the partial
+    /// block after the whole ones: a few elements once per pass, which
+    /// keeps the lane count of the batched pass a constant).
     #[inline(always)]
     fn block<const WITH_KV: bool, const COMMIT: bool>(
         &mut self,
         blk: &mut ElementBlock,
         lanes: usize,
     ) {
+        if LANES == 1 || lanes < LANES {
+            self.one_by_one::<WITH_KV, COMMIT>(blk, lanes);
+            return;
+        }
         match self.method {
             #[cfg(feature = "qr")]
-            Method::Qr if LANES > 1 => self.lanes::<QrLanes<true>, WITH_KV, COMMIT>(blk, lanes),
+            Method::Qr => self.lanes::<QrLanes<true>, WITH_KV, COMMIT>(blk),
             #[cfg(feature = "qr-rest-b")]
-            Method::QrRestB if LANES > 1 => {
-                self.lanes::<QrLanes<false>, WITH_KV, COMMIT>(blk, lanes);
-            }
+            Method::QrRestB => self.lanes::<QrLanes<false>, WITH_KV, COMMIT>(blk),
             #[cfg(feature = "linear")]
-            Method::Linear if LANES > 1 => {
-                self.lanes::<LinearLanes, WITH_KV, COMMIT>(blk, lanes);
-            }
+            Method::Linear => self.lanes::<LinearLanes, WITH_KV, COMMIT>(blk),
             #[cfg(feature = "polar")]
-            Method::Polar if LANES > 1 => {
-                self.lanes::<PolarLanes, WITH_KV, COMMIT>(blk, lanes);
-            }
+            Method::Polar => self.lanes::<PolarLanes, WITH_KV, COMMIT>(blk),
+            // A method not compiled in (refused by `set_settings`, so never
+            // reached): one element at a time, which handles every method.
+            #[allow(unreachable_patterns)]
             _ => self.one_by_one::<WITH_KV, COMMIT>(blk, lanes),
         }
     }
 
-    /// [`Self::batched`] out of line, one function per kernel: compiled for
-    /// AVX2 with `AVX2`, for the baseline otherwise. Inlining every method's
-    /// batched pass into the step made one huge function that took LLVM
-    /// minutes to compile (over eight with every feature, on a 2.4 GHz
-    /// core; one minute now).
+    /// [`Self::batched`] out of line, one function per kernel and
+    /// instruction set ([`Backend::call`]). Inlining every method's batched
+    /// pass into the step made one function so large that LLVM's loop
+    /// passes took minutes over it (over eight with every feature, on a
+    /// 2.4 GHz core); one call per block of eight elements costs nothing
+    /// measurable.
     #[inline(always)]
     fn lanes<K: LaneKernel, const WITH_KV: bool, const COMMIT: bool>(
         &mut self,
         blk: &mut ElementBlock,
-        lanes: usize,
     ) {
-        #[cfg(target_arch = "x86_64")]
-        if AVX2 {
-            #[allow(unsafe_code)]
-            // SAFETY: `AVX2` is true only in `step::step_avx2`, whose callers
-            // promise a CPU with AVX2.
-            unsafe {
-                batched_avx2::<S, K, AVX2, WITH_KV, COMMIT>(self, blk, lanes);
-            }
-            return;
-        }
-        batched_baseline::<S, K, AVX2, WITH_KV, COMMIT>(self, blk, lanes);
+        self.b.call(
+            #[inline(always)]
+            || self.batched::<K, WITH_KV, COMMIT>(blk),
+        );
     }
 
     /// The first `lanes` elements of a block, one at a time (every method;
@@ -408,34 +460,29 @@ impl<S: Sink, const AVX2: bool> ForcePass<'_, S, AVX2> {
         blk: &mut ElementBlock,
         lanes: usize,
     ) {
-        let nodes = self.nodes;
         for j in 0..lanes {
-            let Some(n) = gather(nodes, blk.nodes(j)) else {
-                continue;
-            };
-            let rest = diffs(&[n[0].x0, n[1].x0, n[2].x0, n[3].x0]);
-            let du = diffs(&[n[0].u, n[1].u, n[2].u, n[3].u]);
-            let vel = || [n[0].v, n[1].v, n[2].v, n[3].v];
-            self.one::<WITH_KV, COMMIT>(self.method, blk, j, &rest, &du, vel);
+            self.one::<WITH_KV, COMMIT>(self.method, blk, j);
         }
     }
 
-    /// Element `j` of a block alone with `method`, from its rest edges, displacement
-    /// differences and node velocities (`vel`, called only with `WITH_KV`,
-    /// once the forces are out: loaded where they are used, they are not
-    /// kept in registers through the force kernel).
+    /// Element `j` of a block alone with `method`, from its nodes (skipped
+    /// if a node index is out of range). The velocities are read once the
+    /// forces are out (loaded where they are used, they are not kept in
+    /// registers through the force kernel).
     #[inline(always)]
     fn one<const WITH_KV: bool, const COMMIT: bool>(
         &mut self,
         method: Method,
         blk: &mut ElementBlock,
         j: usize,
-        rest: &[Vec3; 3],
-        du: &[Vec3; 3],
-        vel: impl FnOnce() -> [Vec3; 4],
     ) {
+        let Some(n) = gather(self.nodes, blk.nodes(j)) else {
+            return;
+        };
+        let rest = diffs(&[n[0].x0, n[1].x0, n[2].x0, n[3].x0]);
+        let du = diffs(&[n[0].u, n[1].u, n[2].u, n[3].u]);
         let mut el = blk.get(j);
-        let out = element::forces(method, &mut el, self.per_young, rest, du);
+        let out = element::forces(method, &mut el, self.per_young, &rest, &du);
         el.grad = out.grad;
         // The forces first, then `−K v`: the two go to different sums, so
         // the order between them changes no bits, and the forces' registers
@@ -443,7 +490,8 @@ impl<S: Sink, const AVX2: bool> ForcePass<'_, S, AVX2> {
         // spilled).
         self.emit_forces(&out, el.nodes);
         if WITH_KV {
-            let kv = hform::stiffness_product(&vel(), &out.grad, el.lame(self.per_young));
+            let vel = [n[0].v, n[1].v, n[2].v, n[3].v];
+            let kv = hform::stiffness_product(&vel, &out.grad, el.lame(self.per_young));
             self.emit_kv(el.nodes, &kv);
         }
         if COMMIT {
@@ -451,73 +499,107 @@ impl<S: Sink, const AVX2: bool> ForcePass<'_, S, AVX2> {
         }
     }
 
-    /// The first `lanes` elements of a block, all at once with kernel `K`.
+    /// A whole block of elements, all at once with kernel `K`.
     ///
-    /// Gathers the elements' edges (and velocities) into lanes, runs the
-    /// kernel on every lane with the block's own data, then finishes the
-    /// elements in order exactly as the one-by-one path does. Lanes are
-    /// independent and see the same operations, so the bits are those of the
-    /// one-by-one path. A lane the kernel marks irregular is redone alone;
-    /// unused lanes are computed and ignored.
+    /// Runs the kernel on every lane ([`Self::kernel`]) and hands the
+    /// block's results to the sink, the velocities gathered only then, for
+    /// `−K v`. Lanes are independent and see the same operations, so the
+    /// bits are those of one element at a time. If the kernel marks a lane
+    /// irregular, [`Self::lane_by_lane`] does the block instead.
     #[inline(always)]
     fn batched<K: LaneKernel, const WITH_KV: bool, const COMMIT: bool>(
         &mut self,
         blk: &mut ElementBlock,
-        lanes: usize,
     ) {
-        let zero = Batch::splat(0.0);
-        // Rest positions, displacements (and velocities) in lanes.
-        let mut x0 = [[zero; 3]; 4];
-        let mut u = [[zero; 3]; 4];
-        let mut vel = [[zero; 3]; 4];
-        let present = gather_corners(
-            self.nodes,
-            blk,
-            lanes,
-            #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
-            |k, j, n: &Node| {
-                if let (Some(x0), Some(u)) = (x0.get_mut(k), u.get_mut(k)) {
-                    Batch::put(x0, j, n.x0);
-                    Batch::put(u, j, n.u);
-                }
-                if let (true, Some(v)) = (WITH_KV, vel.get_mut(k)) {
-                    Batch::put(v, j, n.v);
-                }
-            },
-        );
-        // The same operations as one element at a time, on every lane.
-        let rest = diffs(&x0);
-        let du = diffs(&u);
-        let cur = element::current_edges(&rest, &du);
-        let lame = crate::material::lame(blk.stiffness, self.per_young);
+        let (b, nodes) = (self.b, self.nodes);
+        let Some((at, lame, out)) = self.kernel::<K>(blk) else {
+            // A node index out of range (impossible after `build`): the
+            // elements that have all their nodes, alone.
+            self.one_by_one::<WITH_KV, COMMIT>(blk, LANES);
+            return;
+        };
+        // Only this test reads the flags here: the lane-by-lane finish
+        // computes them again (kept for it, as bytes, they cost the common
+        // case about 60 instructions per block).
+        if !out.regular.iter().all(|&r| r)
+            || !self.sink.add_block::<B, WITH_KV>(
+                b,
+                &blk.nodes,
+                &out.k.f,
+                #[inline(always)]
+                || hform::stiffness_product(&velocities(b, nodes, &at), &out.k.grad, lame),
+            )
+        {
+            self.lane_by_lane::<K, WITH_KV, COMMIT>(blk);
+            return;
+        }
+        for (volume, energy) in out.volume.0.iter().zip(out.k.energy.0) {
+            self.totals.inverted += u32::from(*volume < 0.0);
+            self.totals.energy += energy;
+        }
+        if COMMIT {
+            // Row by row: the whole 288 bytes at once was a `memmove` call.
+            for (dst, src) in blk.grad.iter_mut().zip(&out.k.grad) {
+                *dst = *src;
+            }
+            #[cfg(feature = "polar")]
+            if K::ROTATES {
+                blk.rot = out.rot;
+            }
+        }
+    }
+
+    /// Kernel `K` on every lane of a whole block: the block's node corners,
+    /// its `[λ', μ']` and the kernel's results; `None` if a node index is
+    /// out of range.
+    ///
+    /// The edges are gathered corner by corner, so that only they stay live
+    /// (gathering the rest positions, displacements and velocities of all
+    /// four corners first kept 36 vectors live, and the pass was bound by
+    /// its stores to the stack).
+    #[inline(always)]
+    fn kernel<K: LaneKernel>(
+        &self,
+        blk: &ElementBlock,
+    ) -> Option<(B::Corners<Node>, [Batch; 2], LaneForces)> {
+        let (b, nodes) = (self.b, self.nodes);
+        let at = b.corners::<Node>(&blk.nodes, nodes.len())?;
+        let (_rest, _du, cur) = gather_edges(b, nodes, &at);
+        // (The edges a kernel does not read are not computed: all of this
+        // is inlined.)
         let edges = Edges {
             #[cfg(feature = "polar")]
-            rest,
+            rest: _rest,
             #[cfg(feature = "linear")]
-            du,
+            du: _du,
             cur,
         };
+        let lame = crate::material::lame(blk.stiffness, self.per_young);
         let out = K::run(&edges, blk, lame);
-        let kv = if WITH_KV {
-            hform::stiffness_product(&vel, &out.k.grad, lame)
-        } else {
-            [[zero; 3]; 3]
+        Some((at, lame, out))
+    }
+
+    /// A whole block with kernel `K`, finished lane by lane in element
+    /// order: a lane the kernel marks irregular is redone alone with its
+    /// method's one-element kernel, the others take the kernel's results.
+    #[inline(always)]
+    fn lane_by_lane<K: LaneKernel, const WITH_KV: bool, const COMMIT: bool>(
+        &mut self,
+        blk: &mut ElementBlock,
+    ) {
+        let (b, nodes) = (self.b, self.nodes);
+        let Some((at, lame, out)) = self.kernel::<K>(blk) else {
+            self.one_by_one::<WITH_KV, COMMIT>(blk, LANES);
+            return;
         };
-        // Finish in element order.
-        for j in 0..lanes {
-            if !present.get(j).copied().unwrap_or(false) {
-                continue;
-            }
+        let kv = if WITH_KV {
+            hform::stiffness_product(&velocities(b, nodes, &at), &out.k.grad, lame)
+        } else {
+            [[Batch::splat(0.0); 3]; 3]
+        };
+        for j in 0..LANES {
             if !out.regular.get(j).copied().unwrap_or(false) {
-                // The lane's edges again, from its nodes: the same
-                // subtractions, so the same bits, and the block's edges need
-                // not be kept in memory for the rare lane that needs them.
-                let corners = |x: &[[Batch; 3]; 4]| {
-                    let l = |k: usize| Batch::lane(&x[k], j);
-                    [l(0), l(1), l(2), l(3)]
-                };
-                let (rest, du) = (diffs(&corners(&x0)), diffs(&corners(&u)));
-                self.one::<WITH_KV, COMMIT>(K::METHOD, blk, j, &rest, &du, || corners(&vel));
+                self.one::<WITH_KV, COMMIT>(K::METHOD, blk, j);
                 continue;
             }
             let lane = |v: Batch| v.0.get(j).copied().unwrap_or(0.0);
@@ -542,87 +624,6 @@ impl<S: Sink, const AVX2: bool> ForcePass<'_, S, AVX2> {
         }
     }
 
-    /// A whole block whose lanes all take the kernel's regular path, written
-    /// into the step's node work ([`IntoWork`]) with the row moves `M`
-    /// (`crate::rows`): the same operations as [`Self::batched`] and the node
-    /// sums of its per-lane finish, in their order. Returns whether it did;
-    /// if not (another sink, a node index out of range, an irregular lane),
-    /// it has changed nothing, and [`Self::batched`] does the block.
-    ///
-    /// The edges are formed corner by corner as the nodes are gathered and
-    /// the velocities gathered after the kernel, so that only the current
-    /// edges are live through it: gathering the rest positions,
-    /// displacements and velocities of all four corners first kept 36
-    /// vectors live, and the pass was bound by its stores to the stack.
-    #[cfg(target_arch = "x86_64")]
-    #[inline(always)]
-    fn fast_block<M: Moves, K: LaneKernel, const WITH_KV: bool, const COMMIT: bool>(
-        &mut self,
-        blk: &mut ElementBlock,
-        lanes: usize,
-    ) -> bool {
-        if lanes != LANES {
-            return false;
-        }
-        let nodes = self.nodes;
-        let Some(work) = self.sink.work() else {
-            return false;
-        };
-        #[allow(unsafe_code)]
-        // SAFETY: the callers of `fast_block::<M>` run on CPUs with `M`'s
-        // instruction set.
-        let Some((at, [_rest, _du, cur])) =
-            (unsafe { crate::rows::gather_edges::<M>(nodes, &blk.nodes) })
-        else {
-            return false;
-        };
-        // (The edges a kernel does not read are not computed: all of this
-        // is inlined.)
-        let edges = Edges {
-            #[cfg(feature = "polar")]
-            rest: _rest,
-            #[cfg(feature = "linear")]
-            du: _du,
-            cur,
-        };
-        let lame = crate::material::lame(blk.stiffness, self.per_young);
-        let out = K::run(&edges, blk, lame);
-        if !out.regular.iter().all(|&r| r) {
-            return false;
-        }
-        #[allow(unsafe_code)]
-        // SAFETY: as above.
-        let done = unsafe {
-            crate::rows::scatter_forces::<M, WITH_KV>(
-                work,
-                nodes,
-                &at,
-                &blk.nodes,
-                &out.k.f,
-                &out.k.grad,
-                lame,
-            )
-        };
-        if !done {
-            return false;
-        }
-        for (volume, energy) in out.volume.0.iter().zip(out.k.energy.0) {
-            self.totals.inverted += u32::from(*volume < 0.0);
-            self.totals.energy += energy;
-        }
-        if COMMIT {
-            // Row by row: the whole 288 bytes at once was a `memmove` call.
-            for (dst, src) in blk.grad.iter_mut().zip(&out.k.grad) {
-                *dst = *src;
-            }
-            #[cfg(feature = "polar")]
-            if K::ROTATES {
-                blk.rot = out.rot;
-            }
-        }
-        true
-    }
-
     /// Counts an element's energy and inversion, and hands `[f_b, f_c, f_d]`
     /// and `f_a = −(f_b + f_c + f_d)` to the four nodes `ids`, in the order
     /// a, b, c, d.
@@ -643,63 +644,68 @@ impl<S: Sink, const AVX2: bool> ForcePass<'_, S, AVX2> {
     }
 }
 
-/// [`ForcePass::batched`] compiled for AVX2, out of line (see
-/// [`ForcePass::lanes`]). The caller must run on a CPU with AVX2.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-#[inline(never)]
-fn batched_avx2<
-    S: Sink,
-    K: LaneKernel,
-    const AVX2: bool,
-    const WITH_KV: bool,
-    const COMMIT: bool,
->(
-    pass: &mut ForcePass<'_, S, AVX2>,
-    blk: &mut ElementBlock,
-    lanes: usize,
-) {
-    if !pass.fast_block::<Avx2, K, WITH_KV, COMMIT>(blk, lanes) {
-        pass.batched::<K, WITH_KV, COMMIT>(blk, lanes);
-    }
+/// Three edge vectors in lanes, `[edge][component]`.
+type Edges3 = [[Batch; 3]; 3];
+
+/// The edges `b − a, c − a, d − a` of a block's elements at `c`, in lanes:
+/// rest (`x0`), displacement (`u`) and current (their sum), as
+/// [`diffs`] and [`element::current_edges`] form them. Corner by corner, so
+/// that only the edges stay live.
+#[inline(always)]
+fn gather_edges<B: Backend>(
+    b: B,
+    nodes: &[Node],
+    c: &B::Corners<Node>,
+) -> (Edges3, Edges3, Edges3) {
+    let mut a = [
+        b.gather::<NodeX0>(nodes, c, 0),
+        b.gather::<NodeU>(nodes, c, 0),
+    ];
+    b.fence(&mut a);
+    let [eb, ec, ed] = [
+        edge(b, nodes, c, 1, &a),
+        edge(b, nodes, c, 2, &a),
+        edge(b, nodes, c, 3, &a),
+    ];
+    (
+        [eb[0], ec[0], ed[0]],
+        [eb[1], ec[1], ed[1]],
+        [eb[2], ec[2], ed[2]],
+    )
 }
 
-/// [`ForcePass::batched`] out of line, one function per kernel, for the
-/// baseline instruction set (on x86_64, whole blocks with the SSE2 row moves
-/// first, as `batched_avx2` does with AVX2). Inlined into the step, the
-/// four methods' batched passes made one function so large that LLVM's loop
-/// passes took minutes over it; one call per block of eight elements costs
-/// nothing measurable.
-#[inline(never)]
-fn batched_baseline<
-    S: Sink,
-    K: LaneKernel,
-    const AVX2: bool,
-    const WITH_KV: bool,
-    const COMMIT: bool,
->(
-    pass: &mut ForcePass<'_, S, AVX2>,
-    blk: &mut ElementBlock,
-    lanes: usize,
-) {
-    #[cfg(target_arch = "x86_64")]
-    if pass.fast_block::<Sse2, K, WITH_KV, COMMIT>(blk, lanes) {
-        return;
-    }
-    pass.batched::<K, WITH_KV, COMMIT>(blk, lanes);
+/// The rest, displacement and current edge from corner `a` to corner `k`
+/// of the block `c` (`a` holds corner `a`'s rest position and
+/// displacement).
+#[inline(always)]
+fn edge<B: Backend>(
+    b: B,
+    nodes: &[Node],
+    c: &B::Corners<Node>,
+    k: usize,
+    a: &[[Batch; 3]; 2],
+) -> [[Batch; 3]; 3] {
+    let mut p = [
+        b.gather::<NodeX0>(nodes, c, k),
+        b.gather::<NodeU>(nodes, c, k),
+    ];
+    b.fence(&mut p);
+    let (rest, du) = (sub(p[0], a[0]), sub(p[1], a[1]));
+    [rest, du, add(rest, du)]
 }
 
 /// Stiffness product `q += −K d` of the first `count` elements, with the
-/// gradients of the last force pass.
+/// gradients of the last force pass, node vectors moved with the backend
+/// `b` (every backend gives the same bits).
 ///
 /// A block at a time: its gradients and stiffnesses are loaded as whole
 /// lanes, the four nodes' `d` of each element gathered into lanes, the
 /// product computed on every lane at once and scattered element after
 /// element, so every node sum is in element order (the bits of one element
-/// at a time). With array-of-structs elements the same batching bought ~2 %:
-/// moving the gradients into lanes cost what the lanes saved.
-#[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
-pub(crate) fn stiffness<const AVX2: bool>(
+/// at a time).
+#[inline(always)]
+pub(crate) fn stiffness<B: Backend>(
+    b: B,
     per_young: [f32; 2],
     elems: &[ElementBlock],
     count: usize,
@@ -711,11 +717,18 @@ pub(crate) fn stiffness<const AVX2: bool>(
     }
     let (whole, tail) = split(count);
     for blk in elems.iter().take(whole) {
-        product_block::<AVX2>(per_young, blk, LANES, work);
+        if let Some(c) = b.corners::<NodeWork>(&blk.nodes, work.len()) {
+            product_block(b, per_young, blk, &c, work);
+        }
     }
     if tail > 0 {
-        if let Some(blk) = elems.get(whole) {
-            product_block::<AVX2>(per_young, blk, tail, work);
+        // The last block, partly used, with the portable moves: once per
+        // product, and the same bits.
+        let blk = elems.get(whole);
+        if let Some((blk, c)) =
+            blk.zip(blk.and_then(|blk| Portable::partial(&blk.nodes, tail, work.len())))
+        {
+            product_block(Portable, per_young, blk, &c, work);
         }
     }
 }
@@ -739,7 +752,7 @@ use crate::fpu_product::product as product_one_by_one;
 ///
 /// With feature `fpu-product` on bare-metal Arm hard-float targets,
 /// `crate::fpu_product::product` takes its place (the same operations in
-/// assembly, imported under this name below); the firmware's builds without
+/// assembly, imported under this name above); the firmware's builds without
 /// that feature run this one, with the same hash.
 #[cfg(not(all(
     feature = "fpu-product",
@@ -765,9 +778,9 @@ fn product_one_by_one(per_young: [f32; 2], blocks: &[ElementBlock], work: &mut [
     }
 }
 
-/// [`stiffness`] compiled once in this crate, for the static solver and the
-/// diagnostics (generic `Scene<S>` methods that would otherwise compile the
-/// product into every crate calling them).
+/// [`stiffness`] compiled once in this crate with the baseline backend, for
+/// the static solver and the diagnostics (generic `Scene<S>` methods that
+/// would otherwise compile the product into every crate calling them).
 #[cfg(any(feature = "statics", feature = "diagnostics"))]
 pub(crate) fn stiffness_outside_step(
     per_young: [f32; 2],
@@ -775,60 +788,85 @@ pub(crate) fn stiffness_outside_step(
     count: usize,
     work: &mut [NodeWork],
 ) {
-    stiffness::<false>(per_young, elems, count, work);
+    stiffness(crate::backend::BASELINE, per_young, elems, count, work);
 }
 
-/// [`stiffness`] for the first `lanes` elements of one block; on x86_64,
-/// whole blocks move their node vectors as rows (`crate::rows`), with AVX2
-/// if `AVX2`, else with SSE2; same bits.
+/// The gradients of chunk `h` of a block, through the backend (which may
+/// have them read from memory at each use: [`Backend::reread`]).
+struct ChunkGrads<'a, B> {
+    b: B,
+    h: usize,
+    grad: &'a [[Batch; 3]; 3],
+}
+
+impl<B: Backend> hform::Grads<B::Chunk> for ChunkGrads<'_, B> {
+    #[inline(always)]
+    fn at(&self, i: usize) -> [B::Chunk; 3] {
+        let b = self.b;
+        let Some(g) = b.reread(self.grad).get(i) else {
+            return [B::Chunk::splat(0.0); 3];
+        };
+        [
+            b.chunk(&g[0], self.h),
+            b.chunk(&g[1], self.h),
+            b.chunk(&g[2], self.h),
+        ]
+    }
+}
+
+/// [`stiffness`] for the lanes of one block at `c`, a chunk of lanes at a
+/// time ([`Backend::Chunk`]).
 #[inline(always)]
-fn product_block<const AVX2: bool>(
+fn product_block<B: Backend>(
+    b: B,
     per_young: [f32; 2],
     blk: &ElementBlock,
-    lanes: usize,
+    c: &B::Corners<NodeWork>,
     work: &mut [NodeWork],
 ) {
-    #[cfg(target_arch = "x86_64")]
-    if lanes == LANES {
-        #[allow(unsafe_code)]
-        // SAFETY: `AVX2` is true only in `step::step_avx2`, whose callers
-        // promise a CPU with AVX2; every x86_64 CPU has SSE2.
-        let done = unsafe {
-            if AVX2 {
-                crate::rows::product_block_avx2(per_young, blk, work)
-            } else {
-                crate::rows::product_block_sse2(per_young, blk, work)
-            }
-        };
-        if done {
-            return;
-        }
-    }
-    // `d` in lanes.
-    let mut x = [[Batch::splat(0.0); 3]; 4];
-    let present = gather_corners(
-        work,
-        blk,
-        lanes,
-        #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
-        |k, j, w: &NodeWork| {
-            if let Some(xk) = x.get_mut(k) {
-                Batch::put(xk, j, w.d);
-            }
-        },
-    );
+    const {
+        assert!(
+            B::CHUNKS == 1 || B::CHUNKS == 2,
+            "a block is one or two chunks"
+        )
+    };
     let lame = crate::material::lame(blk.stiffness, per_young);
-    let kd = hform::stiffness_product(&x, &blk.grad, lame);
-    for j in 0..lanes {
-        if !present.get(j).copied().unwrap_or(false) {
-            continue;
-        }
-        scatter(blk.nodes(j), &lane3(&kd, j), |i, v| {
-            if let Some(w) = work.get_mut(i) {
-                w.q = add(w.q, v);
-            }
-        });
+    // Chunk by chunk, written out rather than looped, so that each chunk's
+    // lanes are constants where its code is compiled.
+    product_chunk(b, 0, lame, blk, c, work);
+    if B::CHUNKS == 2 {
+        product_chunk(b, 1, lame, blk, c, work);
     }
+}
+
+/// Chunk `h` of [`product_block`].
+#[inline(always)]
+fn product_chunk<B: Backend>(
+    b: B,
+    h: usize,
+    lame: [Batch; 2],
+    blk: &ElementBlock,
+    c: &B::Corners<NodeWork>,
+    work: &mut [NodeWork],
+) {
+    let mut x = [
+        b.gather_chunk::<WorkD>(work, c, 0, h),
+        b.gather_chunk::<WorkD>(work, c, 1, h),
+        b.gather_chunk::<WorkD>(work, c, 2, h),
+        b.gather_chunk::<WorkD>(work, c, 3, h),
+    ];
+    b.fence_chunk(&mut x);
+    let grad = ChunkGrads {
+        b,
+        h,
+        grad: &blk.grad,
+    };
+    let lame = [b.chunk(&lame[0], h), b.chunk(&lame[1], h)];
+    let s = hform::product_stress(&x, &grad, lame);
+    let kd = hform::product_forces(&s, &grad);
+    let mut f = [share_of_a(&kd), kd[0], kd[1], kd[2]];
+    b.fence_chunk(&mut f);
+    b.scatter_chunk::<WorkQ>(work, c, h, &f);
 }
 
 /// Diagonal of the stiffness matrix of the first `count` elements, averaged
@@ -865,9 +903,10 @@ mod tests {
 
     /// Twenty elements (two whole batches of eight and four left over) over
     /// a shared cloud of nodes, some of them crushed flat or to a point so
-    /// that their lanes need the QR frame's fallbacks: for every method, the
-    /// batched pass must give every node the bits of the element-by-element
-    /// computation.
+    /// that their lanes need the QR frame's fallbacks: for every method and
+    /// every backend of the target, into the step's node work or through
+    /// callbacks, the batched pass must give every node the bits of the
+    /// element-by-element computation.
     #[test]
     fn batched_forces_are_the_bits_of_one_by_one() {
         for &method in Method::ALL {
@@ -876,8 +915,6 @@ mod tests {
     }
 
     fn batched_against_one_by_one(method: Method) {
-        // Poisson ratio 0.3: λ/E = 0.3/(1.3·0.4), μ/E = 1/2.6.
-        const PER_YOUNG: [f32; 2] = [0.576_923_1, 0.384_615_4];
         let mut nodes = [Node::EMPTY; 12];
         for (i, n) in nodes.iter_mut().enumerate() {
             let t = i as f32;
@@ -910,53 +947,13 @@ mod tests {
                 el.rest_grad = qr::forces::<true>(ab, ac, ad, &rest_frame.local, PER_YOUNG).grad;
             }
         }
-        let run = |batched: bool| {
+        let alone = {
             let mut f = [[0.0f32; 3]; 12];
             let mut kv = [[0.0f32; 3]; 12];
             let mut els = elems;
-            let totals = if batched {
-                let add_f = |i: usize, a: Vec3| f[i] = add(f[i], a);
-                let add_kv = |i: usize, b: Vec3| kv[i] = add(kv[i], b);
-                // Three blocks of eight (on x86/AArch64): two whole, one with
-                // four lanes used.
-                let mut blocks = [ElementBlock::EMPTY; crate::element_blocks(20)];
-                for (e, el) in els.iter().enumerate() {
-                    blocks[e / LANES].set(e % LANES, el);
-                }
-                // Two passes: the second starts from the rotations the first
-                // kept, where most polar lanes take the regular path.
-                let (mut add_f, mut add_kv) = (add_f, add_kv);
-                let sink = Each(&mut add_f, &mut add_kv);
-                forces::<true, true, false>(method, PER_YOUNG, &nodes, &mut blocks, 20, sink);
-                let sink = Each(add_f, add_kv);
-                let totals =
-                    forces::<true, true, false>(method, PER_YOUNG, &nodes, &mut blocks, 20, sink);
-                for (e, el) in els.iter_mut().enumerate() {
-                    *el = blocks[e / LANES].get(e % LANES);
-                }
-                // The stiffness product by blocks against one element at a
-                // time, with the gradients just kept.
-                let mut work = [NodeWork::EMPTY; 12];
-                let mut alone = [[0.0f32; 3]; 12];
-                for (i, w) in work.iter_mut().enumerate() {
-                    let t = i as f32;
-                    w.d = [(1.7 * t).sin(), 0.2 * t, (0.3 * t).cos()];
-                }
-                stiffness::<false>(PER_YOUNG, &blocks, 20, &mut work);
-                for el in els.iter() {
-                    let x = el.nodes.map(|i| work[usize::from(i)].d);
-                    let kd = hform::stiffness_product(&x, &el.grad, el.lame(PER_YOUNG));
-                    scatter(el.nodes, &kd, |i, v| alone[i] = add(alone[i], v));
-                }
-                assert_eq!(
-                    work.map(|w| w.q.map(f32::to_bits)),
-                    alone.map(|v| v.map(f32::to_bits))
-                );
-                assert!(alone.iter().any(|v| *v != [0.0; 3]));
-                totals
-            } else {
+            let totals = {
                 // Element after element with each method's own kernel, twice
-                // as above; the totals are the second pass's.
+                // as in `batched_run`; the totals are the second pass's.
                 let mut totals = PassTotals::default();
                 for _ in 0..2 {
                     totals = PassTotals::default();
@@ -978,7 +975,107 @@ mod tests {
             };
             (f, kv, els, totals.energy, totals.inverted)
         };
-        let (batched, alone) = (run(true), run(false));
+        let mut runs = std::vec![
+            batched_run(Portable, method, &nodes, elems, false),
+            batched_run(Portable, method, &nodes, elems, true),
+        ];
+        #[cfg(target_arch = "x86_64")]
+        {
+            runs.push(batched_run(
+                crate::backend::Sse2,
+                method,
+                &nodes,
+                elems,
+                false,
+            ));
+            runs.push(batched_run(
+                crate::backend::Sse2,
+                method,
+                &nodes,
+                elems,
+                true,
+            ));
+            if let Some(avx2) = crate::backend::Avx2::new() {
+                runs.push(batched_run(avx2, method, &nodes, elems, true));
+            }
+        }
+        for batched in runs {
+            compare(&batched, &alone);
+        }
+    }
+
+    /// What a force pass gave: forces and `−K v` per node, the elements
+    /// after it, its energy and inverted count.
+    type Outcome = ([Vec3; 12], [Vec3; 12], [Element; 20], f32, u32);
+
+    /// Poisson ratio 0.3: λ/E = 0.3/(1.3·0.4), μ/E = 1/2.6.
+    const PER_YOUNG: [f32; 2] = [0.576_923_1, 0.384_615_4];
+
+    /// Two force passes over `elems` in blocks with the backend `b`, into
+    /// the node work (`into_work`, the step's sink) or through callbacks,
+    /// then the stiffness product by blocks checked against one element at
+    /// a time, with the gradients just kept.
+    fn batched_run<B: Backend>(
+        b: B,
+        method: Method,
+        nodes: &[Node; 12],
+        elems: [Element; 20],
+        into_work: bool,
+    ) -> Outcome {
+        let mut f = [[0.0f32; 3]; 12];
+        let mut kv = [[0.0f32; 3]; 12];
+        let mut els = elems;
+        // Three blocks of eight (on x86/AArch64): two whole, one with
+        // four lanes used.
+        let mut blocks = [ElementBlock::EMPTY; crate::element_blocks(20)];
+        for (e, el) in els.iter().enumerate() {
+            blocks[e / LANES].set(e % LANES, el);
+        }
+        // Two passes: the second starts from the rotations the first
+        // kept, where most polar lanes take the regular path.
+        let mut totals = PassTotals::default();
+        let mut work = [NodeWork::EMPTY; 12];
+        for _ in 0..2 {
+            totals = if into_work {
+                let sink = IntoWork(&mut work);
+                forces::<B, true, true>(b, method, PER_YOUNG, nodes, &mut blocks, 20, sink)
+            } else {
+                let add_f = |i: usize, a: Vec3| f[i] = add(f[i], a);
+                let add_kv = |i: usize, v: Vec3| kv[i] = add(kv[i], v);
+                let sink = Each(add_f, add_kv);
+                forces::<B, true, true>(b, method, PER_YOUNG, nodes, &mut blocks, 20, sink)
+            };
+        }
+        if into_work {
+            for (i, w) in work.iter().enumerate() {
+                (f[i], kv[i]) = (w.r, w.q);
+            }
+        }
+        for (e, el) in els.iter_mut().enumerate() {
+            *el = blocks[e / LANES].get(e % LANES);
+        }
+        let mut work = [NodeWork::EMPTY; 12];
+        let mut alone = [[0.0f32; 3]; 12];
+        for (i, w) in work.iter_mut().enumerate() {
+            let t = i as f32;
+            w.d = [(1.7 * t).sin(), 0.2 * t, (0.3 * t).cos()];
+        }
+        stiffness(b, PER_YOUNG, &blocks, 20, &mut work);
+        for el in els.iter() {
+            let x = el.nodes.map(|i| work[usize::from(i)].d);
+            let kd = hform::stiffness_product(&x, &el.grad, el.lame(PER_YOUNG));
+            scatter(el.nodes, &kd, |i, v| alone[i] = add(alone[i], v));
+        }
+        assert_eq!(
+            work.map(|w| w.q.map(f32::to_bits)),
+            alone.map(|v| v.map(f32::to_bits))
+        );
+        assert!(alone.iter().any(|v| *v != [0.0; 3]));
+        (f, kv, els, totals.energy, totals.inverted)
+    }
+
+    /// Every result of `batched` has the bits of `alone`'s.
+    fn compare(batched: &Outcome, alone: &Outcome) {
         for v in batched.0.iter().chain(&batched.1) {
             assert!(crate::math::is_finite3(*v));
         }

@@ -9,6 +9,7 @@ use crate::material::{
 use crate::math::{add, det3, is_finite3, sub, Vec3};
 use crate::settings::{Settings, StepStats};
 use crate::storage::{ArrayStorage, Node, NodeWork, PartsMut, Storage, FIXED};
+use crate::InstructionSet;
 
 #[cfg(feature = "ground")]
 use crate::ground::Plane;
@@ -44,6 +45,33 @@ pub(crate) struct Header {
     /// Entries used in the storage's load list (nodes flagged `LOADED`).
     #[cfg(feature = "loads")]
     pub(crate) n_loads: usize,
+    /// The instruction set asked for ([`Scene::set_instruction_set`]).
+    pub(crate) isa: IsaChoice,
+}
+
+/// The instruction set a scene is asked to step with: `Best` is zero, so
+/// that a scene made by `const fn new` stays all zeros (a `static` in
+/// `.bss`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u8)]
+pub(crate) enum IsaChoice {
+    /// The best the CPU supports ([`InstructionSet::best`]).
+    Best = 0,
+    /// The baseline.
+    Baseline = 1,
+    /// AVX2 (checked supported when chosen).
+    Avx2 = 2,
+}
+
+impl IsaChoice {
+    /// What to ask the step for: `None` for the best.
+    pub(crate) fn asked(self) -> Option<InstructionSet> {
+        match self {
+            IsaChoice::Best => None,
+            IsaChoice::Baseline => Some(InstructionSet::Baseline),
+            IsaChoice::Avx2 => Some(InstructionSet::Avx2),
+        }
+    }
 }
 
 impl Header {
@@ -69,6 +97,7 @@ impl Header {
         tool: ToolState::NONE,
         #[cfg(feature = "loads")]
         n_loads: 0,
+        isa: IsaChoice::Best,
     };
 }
 
@@ -689,29 +718,36 @@ impl<S: Storage> Scene<S> {
     /// elements' world gradients (and `Polar`'s warm-start rotations) are
     /// those the attempted step computed.
     ///
-    /// The step itself is compiled once, in this crate, for the target's
-    /// baseline instruction set (on x86_64, SSE2, with node vectors moved in
-    /// and out of vector lanes by SSE2 shuffles). On x86_64,
-    /// [`Scene::step_avx2`] is the same step compiled for AVX2, for hosts that
-    /// detect the CPU at run time.
+    /// The step is compiled in this crate once for each instruction set of
+    /// the target, and runs with the fastest one the CPU supports
+    /// ([`InstructionSet::best`]) unless [`Scene::set_instruction_set`] chose
+    /// another. Every instruction set gives the same bits.
     pub fn step(&mut self) -> Result<StepStats, StepError> {
-        crate::step::step(self.view())
+        let isa = self.hdr.isa.asked();
+        crate::step::step(self.view(), isa)
     }
 
-    /// [`Scene::step`] compiled for AVX2 (x86_64 only), with the same bits:
-    /// the same IEEE operations in the same order, never fused (the `fma`
-    /// feature is not enabled), with node vectors moved in and out of vector
-    /// lanes by AVX2 shuffles (256 bits wide where [`Scene::step`] uses 128).
-    ///
-    /// # Safety
-    ///
-    /// The CPU must support AVX2, e.g. `std::is_x86_feature_detected!("avx2")`
-    /// returned `true` (`corofem_io::fast` does the check).
-    #[cfg(target_arch = "x86_64")]
-    #[allow(unsafe_code)]
-    pub unsafe fn step_avx2(&mut self) -> Result<StepStats, StepError> {
-        // SAFETY: the caller promises AVX2.
-        unsafe { crate::step::step_avx2(self.view()) }
+    /// The instruction set [`Scene::step`] runs with.
+    #[must_use]
+    pub fn instruction_set(&self) -> InstructionSet {
+        self.hdr.isa.asked().unwrap_or_else(InstructionSet::best)
+    }
+
+    /// Chooses the instruction set of [`Scene::step`]: `None` (the default)
+    /// for the fastest the CPU supports, `Some(isa)` for that one, refused
+    /// with [`Error::UnsupportedInstructionSet`] if the CPU (or, without the
+    /// `std` feature, the build) does not support it. Every instruction set
+    /// gives the same bits: this is for comparing their speed.
+    pub fn set_instruction_set(&mut self, isa: Option<InstructionSet>) -> Result<(), Error> {
+        self.hdr.isa = match isa {
+            None => IsaChoice::Best,
+            Some(i) if !i.is_supported() => {
+                return Err(Error::UnsupportedInstructionSet { instruction_set: i })
+            }
+            Some(InstructionSet::Baseline) => IsaChoice::Baseline,
+            Some(InstructionSet::Avx2) => IsaChoice::Avx2,
+        };
+        Ok(())
     }
 
     /// A 64-bit FNV-1a hash of the bits of every displacement and velocity:

@@ -17,6 +17,7 @@
 //! preconditioner and the constraints; CG runs element passes of `−K d`; a
 //! last node pass checks the result is finite and applies it.
 
+use crate::backend::Backend;
 use crate::cg;
 use crate::math::{add, axpy, cross, dot, finite_probe, is_finite3, scale, solve3, sub, Vec3};
 use crate::pass;
@@ -31,28 +32,33 @@ use crate::storage::LOADED;
 #[cfg(feature = "ground")]
 use crate::storage::RELEASED;
 use crate::storage::{Node, NodeWork, CONTACT, FIXED};
+use crate::InstructionSet;
 use crate::StepError;
 
-/// The step, compiled once in this crate: `Scene::step` of every storage type
-/// calls it, so a crate that steps scenes does not compile its own copy.
-pub(crate) fn step(v: View<'_>) -> Result<StepStats, StepError> {
-    step_inline::<false>(v)
+/// The step, compiled once in this crate (`Scene::step` of every storage
+/// type calls it, so a crate that steps scenes does not compile its own
+/// copy) for each instruction set the target has: with AVX2 where `isa`
+/// asks for it (or for the best) and the CPU has it, else with the
+/// target's baseline.
+pub(crate) fn step(v: View<'_>, isa: Option<InstructionSet>) -> Result<StepStats, StepError> {
+    #[cfg(target_arch = "x86_64")]
+    if isa != Some(InstructionSet::Baseline) {
+        if let Some(avx2) = crate::backend::Avx2::new() {
+            // The whole step inlined into one function compiled for AVX2.
+            return avx2.call(
+                #[inline(always)]
+                || step_with(avx2, v),
+            );
+        }
+    }
+    let _ = isa;
+    step_with(crate::backend::BASELINE, v)
 }
 
-/// The step compiled for AVX2, with the bits of [`step`]: the element
-/// kernels and node loops are inlined into it (`#[inline(always)]` on x86)
-/// and the node vectors move in and out of lanes with `crate::rows::Avx2`. The
-/// caller must run on a CPU with AVX2.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-pub(crate) fn step_avx2(v: View<'_>) -> Result<StepStats, StepError> {
-    step_inline::<true>(v)
-}
-
-/// The step, inlined into [`step`] and [`step_avx2`] on x86; `AVX2` selects
-/// the AVX2 node moves.
-#[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
-fn step_inline<const AVX2: bool>(v: View<'_>) -> Result<StepStats, StepError> {
+/// The step with the backend `b`: inlined into each of [`step`]'s
+/// instances, so that the node loops are compiled for its instruction set.
+#[inline(always)]
+fn step_with<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
     let View {
         hdr,
         nodes,
@@ -88,7 +94,8 @@ fn step_inline<const AVX2: bool>(v: View<'_>) -> Result<StepStats, StepError> {
         w.r = [0.0; 3];
         w.q = [0.0; 3];
     }
-    let totals = pass::forces::<true, true, AVX2>(
+    let totals = pass::forces::<B, true, true>(
+        b,
         s.method,
         per_young,
         nodes,
@@ -224,7 +231,7 @@ fn step_inline<const AVX2: bool>(v: View<'_>) -> Result<StepStats, StepError> {
         // into q = 0; returns dᵀ A d.
         #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
         |work: &mut [NodeWork]| {
-            pass::stiffness::<AVX2>(per_young, elems, n_elems, work);
+            pass::stiffness(b, per_young, elems, n_elems, work);
             let mut dq = 0.0f32;
             for (n, w) in nodes.iter().zip(work.iter_mut()) {
                 #[allow(unused_mut)] // only the tool adds to it

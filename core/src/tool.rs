@@ -155,22 +155,6 @@ impl<S: crate::Storage> crate::Scene<S> {
         self.with_target(target, Self::step)
     }
 
-    /// [`Scene::step_haptic`](crate::Scene::step_haptic) compiled for AVX2
-    /// (x86_64 only), same bits: see [`Scene::step_avx2`](crate::Scene::step_avx2).
-    ///
-    /// # Safety
-    ///
-    /// The CPU must support AVX2.
-    #[cfg(target_arch = "x86_64")]
-    #[allow(unsafe_code)]
-    pub unsafe fn step_haptic_avx2(
-        &mut self,
-        target: Vec3,
-    ) -> Result<crate::StepStats, crate::StepError> {
-        // SAFETY: the caller promises AVX2.
-        self.with_target(target, |s| unsafe { s.step_avx2() })
-    }
-
     /// Moves the tool target to `target` (m) and steps with `step`; puts the
     /// target back if the step fails.
     #[inline(always)]

@@ -3,17 +3,18 @@
 //! compare against the same values). A changed hash means changed results:
 //! if the change is intended, record the new values and say why in the commit.
 
-use corofem::{BoxMesh, BuildOptions, Material, Method, Plane, Settings, StaticScene};
+use corofem::{
+    BoxMesh, BuildOptions, InstructionSet, Material, Method, Plane, Settings, StaticScene,
+};
 
 /// A beam held at one end, pulled by the tool, touching the ground, with
 /// damping and warm start on: every part of the step runs.
 pub fn reference_run(method: Method) -> u64 {
-    run(method, false)
+    run(method, InstructionSet::Baseline)
 }
 
-/// The reference run, stepped by `Scene::step` or, with `fast`, by
-/// `corofem_io::fast` (compiled for AVX2 when the CPU has it).
-fn run(method: Method, fast: bool) -> u64 {
+/// The reference run, stepped with the instruction set `isa`.
+fn run(method: Method, isa: InstructionSet) -> u64 {
     let mesh = BoxMesh {
         size: [1.0, 0.2, 0.2],
         cells: [10, 2, 2],
@@ -46,6 +47,7 @@ fn run(method: Method, fast: bool) -> u64 {
         ..Settings::default()
     })
     .unwrap();
+    s.set_instruction_set(Some(isa)).unwrap();
     let fixed: Vec<u32> = (0..99).filter(|&i| nodes[i as usize][0] == 0.0).collect();
     s.fix_nodes(&fixed).unwrap();
     s.set_ground(Some(Plane {
@@ -59,19 +61,11 @@ fn run(method: Method, fast: bool) -> u64 {
     for k in 0..300 {
         let t = k as f32 * 1e-3;
         let target = [start[0], start[1] + 0.1 * t, start[2] - 0.4 * t];
-        if fast {
-            corofem_io::fast::step_haptic(&mut *s, target).unwrap();
-        } else {
-            s.step_haptic(target).unwrap();
-        }
+        s.step_haptic(target).unwrap();
     }
     s.release();
     for _ in 0..100 {
-        if fast {
-            corofem_io::fast::step(&mut *s).unwrap();
-        } else {
-            s.step().unwrap();
-        }
+        s.step().unwrap();
     }
     s.state_hash()
 }
@@ -83,21 +77,55 @@ fn same_input_same_bits() {
     }
 }
 
-/// The step compiled for the instruction set detected at run time (AVX2 on
-/// this machine) gives the bits of the baseline build, for every method.
+/// Every instruction set this CPU supports gives the bits of the baseline,
+/// for every method; a scene steps with the best one unless told otherwise.
 #[test]
 fn fast_step_has_the_bits_of_the_baseline() {
-    let isa = corofem_io::fast::instruction_set();
-    eprintln!("instruction set: {isa}");
+    let best = InstructionSet::best();
+    eprintln!("instruction set: {}", best.name());
     // On a CPU with AVX2 (this machine, CI) the comparison must really be
     // AVX2 against baseline, or it compares the baseline with itself.
     #[cfg(target_arch = "x86_64")]
-    if std::is_x86_feature_detected!("avx2") && std::env::var_os("COROFEM_ISA").is_none() {
-        assert_eq!(isa, "avx2");
+    if std::is_x86_feature_detected!("avx2") {
+        assert_eq!(best, InstructionSet::Avx2);
     }
+    let scene: StaticScene<4, 1> = StaticScene::new();
+    assert_eq!(scene.instruction_set(), best);
     for &m in Method::ALL {
-        assert_eq!(run(m, true), run(m, false), "{m:?}");
+        for &isa in InstructionSet::ALL.iter().filter(|i| i.is_supported()) {
+            assert_eq!(run(m, isa), reference_run(m), "{m:?} {isa:?}");
+        }
     }
+}
+
+/// An instruction set the CPU lacks is refused with a typed error, and the
+/// scene keeps the one it had.
+#[test]
+fn unsupported_instruction_set_is_refused() {
+    let mut scene: StaticScene<4, 1> = StaticScene::new();
+    scene
+        .set_instruction_set(Some(InstructionSet::Baseline))
+        .unwrap();
+    for &isa in InstructionSet::ALL {
+        let got = scene.set_instruction_set(Some(isa));
+        if isa.is_supported() {
+            assert_eq!(got, Ok(()));
+            assert_eq!(scene.instruction_set(), isa);
+            scene
+                .set_instruction_set(Some(InstructionSet::Baseline))
+                .unwrap();
+        } else {
+            assert_eq!(
+                got,
+                Err(corofem::Error::UnsupportedInstructionSet {
+                    instruction_set: isa
+                })
+            );
+            assert_eq!(scene.instruction_set(), InstructionSet::Baseline);
+        }
+    }
+    scene.set_instruction_set(None).unwrap();
+    assert_eq!(scene.instruction_set(), InstructionSet::best());
 }
 
 #[test]
@@ -136,6 +164,8 @@ fn fast_step_has_the_bits_of_the_baseline_when_elements_invert() {
         };
         let mut fast = mesh.scene(&material);
         let mut base = mesh.scene(&material);
+        base.set_instruction_set(Some(InstructionSet::Baseline))
+            .unwrap();
         let mut max_inverted = 0;
         for s in [&mut fast, &mut base] {
             s.set_settings(Settings {
@@ -157,7 +187,7 @@ fn fast_step_has_the_bits_of_the_baseline_when_elements_invert() {
         for step in 0..150 {
             let pull = 12.0 * (step + 1) as f32 * 0.005;
             let target = [start[0] - 0.5 * pull, start[1] + pull, start[2]];
-            let a = corofem_io::fast::step_haptic(&mut fast, target).unwrap();
+            let a = fast.step_haptic(target).unwrap();
             let b = base.step_haptic(target).unwrap();
             assert_eq!(
                 fast.state_hash(),

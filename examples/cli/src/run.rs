@@ -296,8 +296,8 @@ impl<'a> Sim<'a> {
             };
             let start = Instant::now();
             let stepped = match target {
-                Some(x) => corofem_io::fast::step_haptic(&mut self.scene, x),
-                None => corofem_io::fast::step(&mut self.scene),
+                Some(x) => self.scene.step_haptic(x),
+                None => self.scene.step(),
             };
             ms.push(start.elapsed().as_secs_f64() * 1e3);
             let diverged = |why: String| {

@@ -24,12 +24,10 @@
 //! # Ok::<(), corofem_io::MeshError>(())
 //! ```
 
-// Unsafe only to call the AVX2 instance of the step after detecting AVX2 (fast.rs).
-#![deny(unsafe_code)]
+#![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
 mod error;
-pub mod fast;
 pub mod gmsh;
 mod guard;
 mod heap;
