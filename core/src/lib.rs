@@ -71,6 +71,7 @@
 //! | `fpu-sqrt` | square root with the FPU's `vsqrt.f32` on bare-metal Arm hard-float targets (Cortex-M4F/M7), bit-identical to `libm` |
 //! | `fpu-product` | the CG's stiffness product in FPU assembly (`vldm`/`vstm`) on the same targets, bit-identical to the Rust product |
 //! | `fpu-product-vmul` | `fpu-product` with `vmul` + `vadd` instead of `vmla`: more instructions, fewer cycles on a Cortex-M4 |
+//! | `std` | [`Scene::step`] detects AVX2 on x86_64 once per process and uses it when present ([`InstructionSet`]) |
 //! | `defmt` | `defmt::Format` on public types |
 #![no_std]
 // No unsafe code, except the square root instruction (math.rs: SSE's

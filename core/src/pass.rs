@@ -415,21 +415,22 @@ impl<B: Backend, S: Sink> ForcePass<'_, B, S> {
         blk: &mut ElementBlock,
         lanes: usize,
     ) {
-        if LANES == 1 || lanes < LANES {
+        if lanes < LANES {
             self.one_by_one::<WITH_KV, COMMIT>(blk, lanes);
             return;
         }
         match self.method {
             #[cfg(feature = "qr")]
-            Method::Qr => self.lanes::<QrLanes<true>, WITH_KV, COMMIT>(blk),
+            Method::Qr if LANES > 1 => self.lanes::<QrLanes<true>, WITH_KV, COMMIT>(blk),
             #[cfg(feature = "qr-rest-b")]
-            Method::QrRestB => self.lanes::<QrLanes<false>, WITH_KV, COMMIT>(blk),
+            Method::QrRestB if LANES > 1 => self.lanes::<QrLanes<false>, WITH_KV, COMMIT>(blk),
             #[cfg(feature = "linear")]
-            Method::Linear => self.lanes::<LinearLanes, WITH_KV, COMMIT>(blk),
+            Method::Linear if LANES > 1 => self.lanes::<LinearLanes, WITH_KV, COMMIT>(blk),
             #[cfg(feature = "polar")]
-            Method::Polar => self.lanes::<PolarLanes, WITH_KV, COMMIT>(blk),
-            // A method not compiled in (refused by `set_settings`, so never
-            // reached): one element at a time, which handles every method.
+            Method::Polar if LANES > 1 => self.lanes::<PolarLanes, WITH_KV, COMMIT>(blk),
+            // One lane per block (a Cortex-M4F), or a method not compiled
+            // in (refused by `set_settings`, so never reached): one element
+            // at a time, which handles every method.
             #[allow(unreachable_patterns)]
             _ => self.one_by_one::<WITH_KV, COMMIT>(blk, lanes),
         }
@@ -466,9 +467,7 @@ impl<B: Backend, S: Sink> ForcePass<'_, B, S> {
     }
 
     /// Element `j` of a block alone with `method`, from its nodes (skipped
-    /// if a node index is out of range). The velocities are read once the
-    /// forces are out (loaded where they are used, they are not kept in
-    /// registers through the force kernel).
+    /// if a node index is out of range).
     #[inline(always)]
     fn one<const WITH_KV: bool, const COMMIT: bool>(
         &mut self,
@@ -481,8 +480,26 @@ impl<B: Backend, S: Sink> ForcePass<'_, B, S> {
         };
         let rest = diffs(&[n[0].x0, n[1].x0, n[2].x0, n[3].x0]);
         let du = diffs(&[n[0].u, n[1].u, n[2].u, n[3].u]);
+        let vel = || [n[0].v, n[1].v, n[2].v, n[3].v];
+        self.alone::<WITH_KV, COMMIT>(method, blk, j, &rest, &du, vel);
+    }
+
+    /// Element `j` of a block alone with `method`, from its rest edges,
+    /// displacement differences and node velocities (`vel`, called only
+    /// with `WITH_KV`, once the forces are out: loaded where they are used,
+    /// they are not kept in registers through the force kernel).
+    #[inline(always)]
+    fn alone<const WITH_KV: bool, const COMMIT: bool>(
+        &mut self,
+        method: Method,
+        blk: &mut ElementBlock,
+        j: usize,
+        rest: &[Vec3; 3],
+        du: &[Vec3; 3],
+        vel: impl FnOnce() -> [Vec3; 4],
+    ) {
         let mut el = blk.get(j);
-        let out = element::forces(method, &mut el, self.per_young, &rest, &du);
+        let out = element::forces(method, &mut el, self.per_young, rest, du);
         el.grad = out.grad;
         // The forces first, then `−K v`: the two go to different sums, so
         // the order between them changes no bits, and the forces' registers
@@ -490,8 +507,7 @@ impl<B: Backend, S: Sink> ForcePass<'_, B, S> {
         // spilled).
         self.emit_forces(&out, el.nodes);
         if WITH_KV {
-            let vel = [n[0].v, n[1].v, n[2].v, n[3].v];
-            let kv = hform::stiffness_product(&vel, &out.grad, el.lame(self.per_young));
+            let kv = hform::stiffness_product(&vel(), &out.grad, el.lame(self.per_young));
             self.emit_kv(el.nodes, &kv);
         }
         if COMMIT {

@@ -723,8 +723,7 @@ impl<S: Storage> Scene<S> {
     /// ([`InstructionSet::best`]) unless [`Scene::set_instruction_set`] chose
     /// another. Every instruction set gives the same bits.
     pub fn step(&mut self) -> Result<StepStats, StepError> {
-        let isa = self.hdr.isa.asked();
-        crate::step::step(self.view(), isa)
+        crate::step::step(self.view())
     }
 
     /// The instruction set [`Scene::step`] runs with.

@@ -21,6 +21,8 @@ use crate::backend::Backend;
 use crate::cg;
 use crate::math::{add, axpy, cross, dot, finite_probe, is_finite3, scale, solve3, sub, Vec3};
 use crate::pass;
+#[cfg(target_arch = "x86_64")]
+use crate::scene::IsaChoice;
 use crate::scene::View;
 use crate::settings::StepStats;
 #[cfg(any(feature = "tool", feature = "loads"))]
@@ -32,17 +34,16 @@ use crate::storage::LOADED;
 #[cfg(feature = "ground")]
 use crate::storage::RELEASED;
 use crate::storage::{Node, NodeWork, CONTACT, FIXED};
-use crate::InstructionSet;
 use crate::StepError;
 
 /// The step, compiled once in this crate (`Scene::step` of every storage
 /// type calls it, so a crate that steps scenes does not compile its own
-/// copy) for each instruction set the target has: with AVX2 where `isa`
-/// asks for it (or for the best) and the CPU has it, else with the
-/// target's baseline.
-pub(crate) fn step(v: View<'_>, isa: Option<InstructionSet>) -> Result<StepStats, StepError> {
+/// copy) for each instruction set the target has: with AVX2 where the scene
+/// asks for it (or for the best) and the CPU has it, else with the target's
+/// baseline.
+pub(crate) fn step(v: View<'_>) -> Result<StepStats, StepError> {
     #[cfg(target_arch = "x86_64")]
-    if isa != Some(InstructionSet::Baseline) {
+    if v.hdr.isa != IsaChoice::Baseline {
         if let Some(avx2) = crate::backend::Avx2::new() {
             // The whole step inlined into one function compiled for AVX2.
             return avx2.call(
@@ -51,7 +52,6 @@ pub(crate) fn step(v: View<'_>, isa: Option<InstructionSet>) -> Result<StepStats
             );
         }
     }
-    let _ = isa;
     step_with(crate::backend::BASELINE, v)
 }
 

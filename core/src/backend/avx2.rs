@@ -113,42 +113,12 @@ impl Backend for Avx2 {
     }
 
     #[inline(always)]
-    fn chunk(self, v: &Batch, _h: usize) -> Batch {
-        *v
-    }
-
-    #[inline(always)]
-    fn gather_chunk<R: Row>(
-        self,
-        slots: &[R::Slot],
-        c: &Corners<R::Slot>,
-        k: usize,
-        _h: usize,
-    ) -> [Batch; 3] {
-        self.gather::<R>(slots, c, k)
-    }
-
-    #[inline(always)]
-    fn scatter_chunk<R: Row>(
-        self,
-        slots: &mut [R::Slot],
-        c: &Corners<R::Slot>,
-        _h: usize,
-        v: &[[Batch; 3]; 4],
-    ) {
-        self.scatter::<R>(slots, c, v);
-    }
-
-    #[inline(always)]
     fn fence<const N: usize>(self, v: &mut [[Batch; 3]; N]) {
         // SAFETY: `self` proves AVX2 (which implies AVX).
         unsafe { fence_avx(v) }
     }
 
-    #[inline(always)]
-    fn fence_chunk<const N: usize>(self, v: &mut [[Batch; 3]; N]) {
-        self.fence(v);
-    }
+    super::whole_block_chunks!();
 
     #[inline(always)]
     fn reread<T>(self, r: &T) -> &T {

@@ -194,6 +194,46 @@ row!(NodeX0, Node, x0);
 row!(NodeU, Node, u);
 row!(NodeV, Node, v);
 
+/// The chunk methods of a backend whose chunk is the whole block
+/// (`type Chunk = Batch; const CHUNKS: usize = 1;`): the block's own.
+macro_rules! whole_block_chunks {
+    () => {
+        #[inline(always)]
+        fn chunk(self, v: &Batch, _h: usize) -> Batch {
+            *v
+        }
+
+        #[inline(always)]
+        fn gather_chunk<R: Row>(
+            self,
+            slots: &[R::Slot],
+            c: &Self::Corners<R::Slot>,
+            k: usize,
+            _h: usize,
+        ) -> [Batch; 3] {
+            self.gather::<R>(slots, c, k)
+        }
+
+        #[inline(always)]
+        fn scatter_chunk<R: Row>(
+            self,
+            slots: &mut [R::Slot],
+            c: &Self::Corners<R::Slot>,
+            _h: usize,
+            v: &[[Batch; 3]; 4],
+        ) {
+            self.scatter::<R>(slots, c, v);
+        }
+
+        #[inline(always)]
+        fn fence_chunk<const N: usize>(self, v: &mut [[Batch; 3]; N]) {
+            self.fence(v);
+        }
+    };
+}
+#[cfg(target_arch = "x86_64")]
+pub(crate) use whole_block_chunks;
+
 /// The portable backend: lanes filled and emptied one value at a time. The
 /// baseline of every target but x86_64, and (with one lane) of a
 /// Cortex-M4F. (On x86_64 only the tests use it, to compare the backends.)
@@ -272,32 +312,7 @@ impl Backend for Portable {
         }
     }
 
-    #[inline(always)]
-    fn chunk(self, v: &Batch, _h: usize) -> Batch {
-        *v
-    }
-
-    #[inline(always)]
-    fn gather_chunk<R: Row>(
-        self,
-        slots: &[R::Slot],
-        c: &Indices,
-        k: usize,
-        _h: usize,
-    ) -> [Batch; 3] {
-        self.gather::<R>(slots, c, k)
-    }
-
-    #[inline(always)]
-    fn scatter_chunk<R: Row>(
-        self,
-        slots: &mut [R::Slot],
-        c: &Indices,
-        _h: usize,
-        v: &[[Batch; 3]; 4],
-    ) {
-        self.scatter::<R>(slots, c, v);
-    }
+    whole_block_chunks!();
 
     #[inline(never)]
     fn call<T>(self, f: impl FnOnce() -> T) -> T {
