@@ -73,7 +73,7 @@ iterations, \"static\": {\"converged\": bool}, and each history record adds
 \"newton_residual\" and \"newton_update\"; its \"step\" is the iteration count, \"t\" is 0.
 timing.total_s is the wall time of the stepping loop including diagnostics and VTK output.
 
-More in examples/cli/README.md.
+More in cli/README.md.
 
 The result file is written whole at the end (temporary file + rename): a failed run
 leaves none. Exit status: 0 on success, 1 on any error, 2 on bad command-line usage.";

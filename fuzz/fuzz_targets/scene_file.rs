@@ -1,17 +1,17 @@
-//! The CLI's scene-file parser (examples/cli/src/scene_file.rs, compiled in
+//! The CLI's scene-file parser (cli/src/scene_file.rs, compiled in
 //! by path) on arbitrary text. It accepts a scene or returns an error that
 //! names the file; what it accepts, the core accepts too (the CLI must never
 //! pass on a value the core would refuse).
 
 #![no_main]
 
-#[path = "../../examples/cli/src/error.rs"]
+#[path = "../../cli/src/error.rs"]
 #[allow(dead_code)]
 mod error;
-#[path = "../../examples/cli/src/scene_file.rs"]
+#[path = "../../cli/src/scene_file.rs"]
 #[allow(dead_code)]
 mod scene_file;
-#[path = "../../examples/cli/src/tool_path.rs"]
+#[path = "../../cli/src/tool_path.rs"]
 #[allow(dead_code)]
 mod tool_path;
 
