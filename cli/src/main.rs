@@ -5,20 +5,20 @@
 //! this program adds are listed in the README next to this crate and in
 //! `corofem run --help`.
 
-mod error;
 mod info;
 mod mesh_input;
 mod progress;
 mod result;
 mod run;
-mod scene_file;
 mod select;
-mod tool_path;
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
+// The scene file and the error type are the library part of this package
+// (src/lib.rs), which the fuzz target uses too.
+use corofem_cli::{error, scene_file};
 
 use crate::result::Destination;
 
