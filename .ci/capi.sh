@@ -42,7 +42,7 @@ cargo build --release --manifest-path $MANIFEST --lib
 # (`rustc --print native-static-libs`).
 NATIVE="-lgcc_s -lutil -lrt -lpthread -lm -ldl -lc"
 cc -std=c11 -O2 -Wall -Wextra -pedantic -Werror -ffp-contract=off -Icapi/include \
-    capi/examples/haptic_loop.c "$CARGO_TARGET_DIR/release/libcorofem.a" $NATIVE -o "$OUT/haptic_loop"
+    capi/examples/haptic_loop.c "$CARGO_TARGET_DIR/release/libcorofem_capi.a" $NATIVE -o "$OUT/haptic_loop"
 "$OUT/haptic_loop" box 2000 | tee "$OUT/box.txt"
 if [ -f "$LIVER" ]; then "$OUT/haptic_loop" "$LIVER" 2000 --rt; fi
 pass "C example on the host"
@@ -66,7 +66,7 @@ if command -v arm-none-eabi-gcc >/dev/null && command -v qemu-system-arm >/dev/n
         -Wall -Wextra -Werror -ffp-contract=off -DCOROFEM_BARE_METAL -Icapi/include \
         -nostartfiles -T capi/cortex-m4f/link.ld --specs=rdimon.specs \
         capi/cortex-m4f/startup.c capi/examples/haptic_loop.c \
-        "$CARGO_TARGET_DIR/thumbv7em-none-eabihf/release/libcorofem.a" -lm \
+        "$CARGO_TARGET_DIR/thumbv7em-none-eabihf/release/libcorofem_capi.a" -lm \
         -Wl,--gc-sections -Wl,--no-warn-execstack -o "$OUT/haptic_loop.elf"
     arm-none-eabi-size "$OUT/haptic_loop.elf"
     # Panic-freedom, checked on the linked image: with --gc-sections, the

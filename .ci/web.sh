@@ -22,7 +22,7 @@ rustup target add wasm32-unknown-unknown >/dev/null 2>&1 \
 cd "$web"
 npm ci --no-audit --no-fund --loglevel=error
 
-echo "== web: native unit tests (readers, bodies, scripted-scene hash)"
+echo "== web: native unit tests (the shared mesh readers as the page builds them, mesh preparation)"
 cargo test --quiet
 
 echo "== web: wasm build"

@@ -3,7 +3,7 @@
 
 use std::ptr::{null, null_mut};
 
-use corofem::*;
+use corofem_capi::*;
 
 const NODES: [[f32; 3]; 5] = [
     [0.0, 0.0, 0.0],

@@ -6,7 +6,7 @@
 use std::path::PathBuf;
 use std::process::Command;
 
-use corofem::{Material, Settings, Stats, Status};
+use corofem_capi::{Material, Settings, Stats, Status};
 use corofem_core::{BoxMesh, BuildOptions};
 
 /// One scene of the C example, exactly as it builds it.
@@ -142,17 +142,21 @@ fn run_capi(d: &Def, steps: u32) -> (u64, [f32; 3]) {
     // SAFETY (whole function): every pointer is a live local or a slice of
     // the stated length; the buffer outlives the handle.
     unsafe {
-        assert_eq!(corofem::corofem_scene_bytes(n, t, &mut bytes), Status::Ok);
+        assert_eq!(
+            corofem_capi::corofem_scene_bytes(n, t, &mut bytes),
+            Status::Ok
+        );
         let mut buf = vec![0u8; bytes + 1];
         let mut h = std::ptr::null_mut();
-        let ok = corofem::corofem_scene_init(buf.as_mut_ptr().add(1).cast(), bytes, n, t, &mut h);
+        let ok =
+            corofem_capi::corofem_scene_init(buf.as_mut_ptr().add(1).cast(), bytes, n, t, &mut h);
         assert_eq!(ok, Status::Ok);
         let mat = Material {
             young: d.material.young,
             poisson: d.material.poisson,
             density: d.material.density,
         };
-        let st = corofem::corofem_build(
+        let st = corofem_capi::corofem_build(
             h,
             d.nodes.as_ptr().cast(),
             n,
@@ -164,40 +168,41 @@ fn run_capi(d: &Def, steps: u32) -> (u64, [f32; 3]) {
         );
         assert_eq!(st, Status::Ok);
         let mut set = std::mem::zeroed::<Settings>();
-        assert_eq!(corofem::corofem_settings_default(&mut set), Status::Ok);
+        assert_eq!(corofem_capi::corofem_settings_default(&mut set), Status::Ok);
         set.dt = d.settings.dt;
         set.cg_iterations = d.settings.cg_iterations;
         set.rayleigh_mass = d.settings.rayleigh_mass;
         set.rayleigh_stiffness = d.settings.rayleigh_stiffness;
         set.gravity = d.settings.gravity;
-        assert_eq!(corofem::corofem_set_settings(h, &set), Status::Ok);
+        assert_eq!(corofem_capi::corofem_set_settings(h, &set), Status::Ok);
         let f = &d.fixed;
         assert_eq!(
-            corofem::corofem_fix_nodes(h, f.as_ptr(), f.len()),
+            corofem_capi::corofem_fix_nodes(h, f.as_ptr(), f.len()),
             Status::Ok
         );
         let g = &d.tip;
         assert_eq!(
-            corofem::corofem_grab(h, g.as_ptr(), g.len(), d.stiffness),
+            corofem_capi::corofem_grab(h, g.as_ptr(), g.len(), d.stiffness),
             Status::Ok
         );
         let mut start = [0.0f32; 3];
         assert_eq!(
-            corofem::corofem_tool_target(h, start.as_mut_ptr()),
+            corofem_capi::corofem_tool_target(h, start.as_mut_ptr()),
             Status::Ok
         );
         let mut force = [0.0f32; 3];
         let mut stats = Stats::default();
         for i in 0..steps {
             let tg = target(start, d.pull, i);
-            let st = corofem::corofem_step_haptic(h, tg.as_ptr(), force.as_mut_ptr(), &mut stats);
+            let st =
+                corofem_capi::corofem_step_haptic(h, tg.as_ptr(), force.as_mut_ptr(), &mut stats);
             assert_eq!(st, Status::Ok);
         }
         assert_eq!(stats.steps, u64::from(steps));
         assert_eq!(stats.tool_force, force);
         let mut hash = 0u64;
-        assert_eq!(corofem::corofem_state_hash(h, &mut hash), Status::Ok);
-        assert_eq!(corofem::corofem_scene_deinit(h), Status::Ok);
+        assert_eq!(corofem_capi::corofem_state_hash(h, &mut hash), Status::Ok);
+        assert_eq!(corofem_capi::corofem_scene_deinit(h), Status::Ok);
         (hash, force)
     }
 }

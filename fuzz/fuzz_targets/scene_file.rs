@@ -1,22 +1,13 @@
-//! The CLI's scene-file parser (examples/cli/src/scene_file.rs, compiled in
-//! by path) on arbitrary text. It accepts a scene or returns an error that
+//! The CLI's scene-file parser (`corofem_cli::scene_file`, the library part
+//! of the `corofem-cli` package) on arbitrary text. It accepts a scene or returns an error that
 //! names the file; what it accepts, the core accepts too (the CLI must never
 //! pass on a value the core would refuse).
 
 #![no_main]
 
-#[path = "../../examples/cli/src/error.rs"]
-#[allow(dead_code)]
-mod error;
-#[path = "../../examples/cli/src/scene_file.rs"]
-#[allow(dead_code)]
-mod scene_file;
-#[path = "../../examples/cli/src/tool_path.rs"]
-#[allow(dead_code)]
-mod tool_path;
-
 use std::path::Path;
 
+use corofem_cli::scene_file;
 use libfuzzer_sys::fuzz_target;
 
 const NAME: &str = "fuzz.toml";

@@ -5,7 +5,6 @@
 
 #![no_main]
 
-#[path = "common.rs"]
 mod common;
 
 use arbitrary::{Result, Unstructured};

@@ -1,12 +1,10 @@
 //! The firmware example's scene on the host: the same code
-//! (`examples/firmware/src/scene.rs`, included below) that runs on the
-//! Cortex-M4F in QEMU and in the wasm module. Each size prints one
+//! (`corofem_test_scenes::firmware`) that runs on the Cortex-M4F in QEMU
+//! and in the wasm module. Each size prints one
 //! `firmware-scene` line; `.ci/firmware.sh` compares their hashes with the
 //! firmware's and the wasm module's, which must be bit-identical.
 
-#[allow(dead_code)] // constants the firmware uses and the host does not
-#[path = "../../examples/firmware/src/scene.rs"]
-mod scene;
+use corofem_test_scenes::firmware as scene;
 
 fn run(cells: [u32; 3]) -> scene::Outcome {
     let mesh = scene::mesh(cells);

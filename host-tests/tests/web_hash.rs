@@ -1,19 +1,16 @@
 //! The web demo's scripted scene gives the same bits on the host as in the
 //! browser's wasm module.
 //!
-//! The scene is defined once, in `examples/web/src/demo.rs` (`hash_script`:
+//! The scene is defined once, in `corofem_test_scenes::web` (`hash_script`:
 //! every built-in body, every method, ground, clamp, picking, a tool drag, a
-//! release). That file is included here as a module, so this test runs the
-//! very code the wasm module runs. The expected hash is stored once, in
-//! `examples/web/hash_script.txt`: this test asserts it for x86_64, and
+//! release), which the web demo uses too, so this test runs the very code the
+//! wasm module runs. The expected hash is stored once, in
+//! `test-scenes/src/web_hash_script.txt`: this test asserts it for x86_64, and
 //! `examples/web/test/hash.test.mjs` (run by `.ci/web.sh`) asserts it for the
 //! wasm module in Node. A changed hash means changed results: if the change
 //! is intended, store the new value and say why in the commit.
 
-// Only part of the demo's API is used here.
-#[allow(dead_code)]
-#[path = "../../examples/web/src/demo.rs"]
-mod demo;
+use corofem_test_scenes::web as demo;
 
 #[test]
 fn web_demo_scene_hash_matches_the_stored_value() {
@@ -23,7 +20,7 @@ fn web_demo_scene_hash_matches_the_stored_value() {
     assert_eq!(
         Some(got),
         demo::expected_hash(),
-        "hash_script() = {got:#018x}, examples/web/hash_script.txt holds {}",
+        "hash_script() = {got:#018x}, test-scenes/src/web_hash_script.txt holds {}",
         demo::EXPECTED_HASH.trim()
     );
 }

@@ -1,4 +1,4 @@
-//! corofem on a Cortex-M4F: the scene of `scene.rs` in statics (fixed
+//! corofem on a Cortex-M4F: the scene of `corofem_test_scenes::firmware` in statics (fixed
 //! capacity, no heap, no allocator), poked by a haptic tool for
 //! `scene::STEPS` steps of 1 ms: target position in, reaction force out.
 //!
@@ -17,12 +17,11 @@
 mod host;
 mod logger;
 mod measure;
-#[allow(dead_code)] // SIZES and REFERENCE are for the host test and CI
-mod scene;
 
 use corofem::{
     element_blocks, BoxMesh, ElementBlock, Node, NodeEntry, NodeWork, Scene, SliceStorage, Vec3,
 };
+use corofem_test_scenes::firmware as scene;
 use cortex_m_rt::entry;
 use cortex_m_semihosting::debug::{self, EXIT_FAILURE, EXIT_SUCCESS};
 

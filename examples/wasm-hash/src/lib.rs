@@ -1,15 +1,12 @@
-//! The firmware example's scene (`examples/firmware/src/scene.rs`, the very
-//! same file) compiled to wasm32, for `hash.mjs` to run under node and CI to
+//! The firmware example's scene (`corofem_test_scenes::firmware`, the very
+//! same code) compiled to wasm32, for `hash.mjs` to run under node and CI to
 //! compare its state hash with the firmware's and the host's.
 //!
 //! `no_std`, no allocator: the scene's storage is on the wasm stack.
 #![no_std]
 
-#[allow(dead_code)] // the firmware's constants that this module does not use
-#[path = "../../firmware/src/scene.rs"]
-mod scene;
-
 use corofem::{element_blocks, ElementBlock, Node, NodeEntry, NodeWork, Scene, SliceStorage};
+use corofem_test_scenes::firmware as scene;
 
 /// Node and element capacity: the largest of `scene::SIZES`.
 const CAPACITY: (usize, usize) = {

@@ -16,8 +16,9 @@
 
 #![deny(unsafe_code)]
 
-pub mod demo;
 pub mod mesh_file;
+
+pub use corofem_test_scenes::web as demo;
 
 use std::cell::RefCell;
 

@@ -1,8 +1,8 @@
 // The wasm module headless in Node: it loads with no imports, its API builds
-// and steps a body, and its scripted scene (demo::hash_script, defined once
-// in src/demo.rs) gives bit for bit the state hash the host computes: the
-// value stored in hash_script.txt, which host-tests/tests/web_hash.rs and
-// the crate's native unit test assert too.
+// and steps a body, and its scripted scene (hash_script, defined once in
+// test-scenes/src/web.rs) gives bit for bit the state hash the host computes:
+// the value stored in test-scenes/src/web_hash_script.txt, which
+// host-tests/tests/web_hash.rs and that module's unit test assert too.
 //
 // Run: node --test test/hash.test.mjs   (after build.sh)
 
@@ -14,7 +14,7 @@ import { fileURLToPath } from 'node:url';
 
 const here = path.dirname(fileURLToPath(import.meta.url));
 const wasmPath = process.env.COROFEM_WASM ?? path.join(here, '../www/corofem_web.wasm');
-const expected = BigInt(fs.readFileSync(path.join(here, '../hash_script.txt'), 'utf8').trim());
+const expected = BigInt(fs.readFileSync(path.join(here, '../../../test-scenes/src/web_hash_script.txt'), 'utf8').trim());
 
 const module = await WebAssembly.compile(fs.readFileSync(wasmPath));
 const { exports: x } = await WebAssembly.instantiate(module, {});

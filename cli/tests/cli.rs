@@ -455,8 +455,8 @@ fn usage_errors_exit_with_2() {
 /// the source tree. Scenes on `../shared/meshes` are skipped without it.
 #[test]
 fn shipped_scenes_run() {
-    let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes");
-    let shared = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/meshes");
+    let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/scenes");
+    let shared = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/meshes");
     let have_shared = shared.is_dir();
     let dir = TempDir::new("shipped");
     let mut names: Vec<PathBuf> = fs::read_dir(&scenes)
@@ -497,7 +497,7 @@ fn shipped_scenes_run() {
 /// turns the tetrahedron, the QR element hardly does.
 #[test]
 fn figure3_ghost_torque() {
-    let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("../scenes");
+    let scenes = Path::new(env!("CARGO_MANIFEST_DIR")).join("../examples/scenes");
     let dir = TempDir::new("figure3");
     let max_l = |name: &str| {
         let out = dir.path(&format!("{name}.json"));

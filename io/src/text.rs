@@ -1,5 +1,5 @@
 //! Line and number helpers shared by the hand-written text parsers
-//! (`.tetmesh`, Gmsh MSH 1 and 2 ASCII).
+//! (`.tetmesh`, Gmsh MSH 1, 2 and 4.1 ASCII).
 
 use crate::error::MeshError;
 
@@ -87,6 +87,18 @@ impl<'a> LineReader<'a> {
         token.parse::<u64>().map_err(|_| {
             self.bad_number(line, token, format!("{} (a non-negative integer)", what()))
         })
+    }
+
+    /// Parses an integer of either sign, or returns [`MeshError::BadNumber`].
+    pub(crate) fn i64(
+        &self,
+        line: usize,
+        token: &str,
+        what: impl FnOnce() -> String,
+    ) -> Result<i64, MeshError> {
+        token
+            .parse::<i64>()
+            .map_err(|_| self.bad_number(line, token, format!("{} (an integer)", what())))
     }
 
     fn bad_number(&self, line: usize, token: &str, expected: String) -> MeshError {

@@ -5,20 +5,20 @@
 //! this program adds are listed in the README next to this crate and in
 //! `corofem run --help`.
 
-mod error;
 mod info;
 mod mesh_input;
 mod progress;
 mod result;
 mod run;
-mod scene_file;
 mod select;
-mod tool_path;
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
+// The scene file and the error type are the library part of this package
+// (src/lib.rs), which the fuzz target uses too.
+use corofem_cli::{error, scene_file};
 
 use crate::result::Destination;
 
@@ -73,7 +73,7 @@ iterations, \"static\": {\"converged\": bool}, and each history record adds
 \"newton_residual\" and \"newton_update\"; its \"step\" is the iteration count, \"t\" is 0.
 timing.total_s is the wall time of the stepping loop including diagnostics and VTK output.
 
-More in examples/cli/README.md.
+More in cli/README.md.
 
 The result file is written whole at the end (temporary file + rename): a failed run
 leaves none. Exit status: 0 on success, 1 on any error, 2 on bad command-line usage.";

@@ -121,7 +121,9 @@ pub enum MeshError {
         count: u64,
     },
     /// A valid file in a variant of its format this crate does not read
-    /// (e.g. binary Gmsh MSH 2, MSH 4.0).
+    /// (e.g. binary Gmsh MSH 2, MSH 4.0), or a format whose cargo feature is
+    /// off in this build (VTK without `vtk`, binary MSH 4.1 without
+    /// `gmsh-binary`).
     Unsupported {
         /// The file.
         file: String,
@@ -130,8 +132,8 @@ pub enum MeshError {
         /// What is not supported, and what is.
         what: String,
     },
-    /// A third-party parser (mshio for Gmsh 4.1, vtkio for VTK) rejected the file;
-    /// `message` is its explanation.
+    /// A third-party parser (mshio for binary Gmsh MSH 4.1, vtkio for VTK) rejected
+    /// the file; `message` is its explanation.
     Parse {
         /// The file.
         file: String,
@@ -190,6 +192,28 @@ fn location(f: &mut fmt::Formatter<'_>, file: &str, line: Option<usize>) -> fmt:
 impl fmt::Display for MeshError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         location(f, self.file(), self.line())?;
+        self.write_detail(f)
+    }
+}
+
+/// [`MeshError::detail`]: the message without its location.
+struct Detail<'a>(&'a MeshError);
+
+impl fmt::Display for Detail<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        self.0.write_detail(f)
+    }
+}
+
+impl MeshError {
+    /// The message without the `file:line: ` prefix that `Display` writes,
+    /// for a program that shows the file and the line ([`line`](Self::line))
+    /// its own way.
+    pub fn detail(&self) -> impl fmt::Display + '_ {
+        Detail(self)
+    }
+
+    fn write_detail(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             MeshError::Io { source, .. } => write!(f, "cannot read file: {source}"),
             MeshError::UnknownExtension { extension, .. } => {

@@ -4,6 +4,8 @@
 //!   (MSH 4.1 ASCII/binary, MSH 2.x ASCII, MSH 1.0), legacy VTK `.vtk` or XML VTK
 //!   `.vtu` file; every failure is a [`MeshError`] whose message names the file and,
 //!   where it applies, the line.
+//! * [`parse_mesh`] reads the same from bytes, choosing the reader by their
+//!   content ([`MeshFormat::detect`]) instead of a file name.
 //! * [`mesh_stats`] reports counts, bounding box, volumes, inverted or flat
 //!   tetrahedra and the dihedral-angle range; [`drop_unused_nodes`] removes nodes
 //!   no tetrahedron uses.
@@ -11,9 +13,15 @@
 //!   collection; [`write_vtk_mesh`] and [`write_tetmesh`] write a single mesh.
 //!
 //! Third-party parsers do the heavy lifting where good ones exist: `mshio` for
-//! Gmsh MSH 4.1 and `vtkio` for VTK (reading and writing). The `.tetmesh` format and
-//! Gmsh's older ASCII formats are parsed by hand (see the [`tetmesh`] and [`gmsh`]
+//! binary Gmsh MSH 4.1 and `vtkio` for VTK (reading and writing). The `.tetmesh`
+//! format and ASCII Gmsh files are parsed by hand (see the [`tetmesh`] and [`gmsh`]
 //! modules for why).
+//!
+//! Features: `vtk` (default) brings `vtkio`, the VTK readers, `write_vtk_mesh` and
+//! `VtkSeries`; `gmsh-binary` (default) brings `mshio` and binary MSH 4.1. Without
+//! them the crate needs only `std` and the core and reads `.tetmesh` and ASCII
+//! `.msh` (the web demo's wasm module uses it so); a file in a format whose feature
+//! is off is a [`MeshError::Unsupported`].
 //!
 //! ```no_run
 //! use std::path::Path;
@@ -27,26 +35,33 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
+mod detect;
 mod error;
 pub mod gmsh;
+#[cfg(any(feature = "vtk", feature = "gmsh-binary"))]
 mod guard;
 mod heap;
 mod mesh;
+#[cfg(feature = "vtk")]
 mod series;
 mod stats;
 pub mod tetmesh;
 mod text;
+#[cfg(feature = "vtk")]
 pub mod vtk;
 
 use std::path::Path;
 
+pub use detect::parse_mesh;
 pub use error::{MeshError, MAX_COUNT};
 pub use gmsh::parse_msh;
 pub use heap::{heap_scene, to_core, HeapScene, HeapStorage};
 pub use mesh::{drop_unused_nodes, Mesh};
+#[cfg(feature = "vtk")]
 pub use series::{VtkSeries, PVD_NAME};
 pub use stats::{dihedral_angles_deg, mesh_stats, tet_volume, MeshStats, ZERO_VOLUME_RTOL};
 pub use tetmesh::{format_tetmesh, parse_tetmesh, write_tetmesh};
+#[cfg(feature = "vtk")]
 pub use vtk::{parse_vtk_legacy, parse_vtu, write_vtk_mesh};
 
 /// The mesh file formats [`read_mesh`] knows, chosen by file extension.
@@ -96,10 +111,15 @@ pub fn read_mesh(path: &Path) -> Result<Mesh, MeshError> {
         file: name.clone(),
         source,
     })?;
+    parse_as(format, &bytes, &name)
+}
+
+/// Reads `bytes` as a file of `format`; errors name the file `name`.
+fn parse_as(format: MeshFormat, bytes: &[u8], name: &str) -> Result<Mesh, MeshError> {
     match format {
         MeshFormat::Tetmesh => {
-            let text = std::str::from_utf8(&bytes).map_err(|e| MeshError::Malformed {
-                file: name.clone(),
+            let text = std::str::from_utf8(bytes).map_err(|e| MeshError::Malformed {
+                file: name.to_owned(),
                 line: Some(
                     1 + bytes[..e.valid_up_to()]
                         .iter()
@@ -109,10 +129,20 @@ pub fn read_mesh(path: &Path) -> Result<Mesh, MeshError> {
                 expected: "UTF-8 text".to_owned(),
                 found: "invalid bytes".to_owned(),
             })?;
-            parse_tetmesh(text, &name)
+            parse_tetmesh(text, name)
         }
-        MeshFormat::Gmsh => parse_msh(&bytes, &name),
-        MeshFormat::VtkLegacy => parse_vtk_legacy(&bytes, &name),
-        MeshFormat::Vtu => parse_vtu(&bytes, &name),
+        MeshFormat::Gmsh => parse_msh(bytes, name),
+        #[cfg(feature = "vtk")]
+        MeshFormat::VtkLegacy => parse_vtk_legacy(bytes, name),
+        #[cfg(feature = "vtk")]
+        MeshFormat::Vtu => parse_vtu(bytes, name),
+        #[cfg(not(feature = "vtk"))]
+        MeshFormat::VtkLegacy | MeshFormat::Vtu => Err(MeshError::Unsupported {
+            file: name.to_owned(),
+            line: None,
+            what: "VTK files (.vtk, .vtu) are not read by this build; \
+                   save the mesh as .tetmesh or Gmsh .msh"
+                .to_owned(),
+        }),
     }
 }

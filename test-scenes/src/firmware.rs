@@ -1,7 +1,8 @@
 //! The firmware example's scene, defined once. Three programs run this very
-//! file and print the hash of the final state: the firmware on a Cortex-M4F
-//! (in QEMU), the wasm module (under node) and the host test
-//! `host-tests/tests/firmware_hash.rs`; CI compares the three.
+//! module and print the hash of the final state: the firmware on a Cortex-M4F
+//! (`examples/firmware`, in QEMU), the wasm module of `examples/wasm-hash`
+//! (under node) and the host test `host-tests/tests/firmware_hash.rs`; CI
+//! compares the three.
 //!
 //! A beam of `cx × cy × cz` cubes of 0.1 m (6 tetrahedra each) is held at
 //! `x = 0`. A haptic tool grabs the nodes of the far face `x = 0.1 cx` with a

@@ -1,6 +1,9 @@
 //! VTK reading (legacy `.vtk`, XML `.vtu`), mesh writing, and the `.vtu` + `.pvd`
 //! time series.
 
+// Reads VTK files: needs the feature that reads them.
+#![cfg(feature = "vtk")]
+
 mod common;
 
 use common::{assert_same_mesh, message, shared_tetmesh, two_tets, TempDir};

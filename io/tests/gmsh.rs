@@ -5,6 +5,9 @@
 //! files carry what real Gmsh output has: sparse node tags, extra geometry nodes,
 //! and point/line/triangle elements that must be skipped.
 
+// Reads binary MSH 4.1 among them: needs the feature that reads them.
+#![cfg(feature = "gmsh-binary")]
+
 mod common;
 
 use common::msh::{to_msh2, to_msh41_ascii, to_msh41_binary};
@@ -363,13 +366,15 @@ fn error_msh41_huge_count_and_garbage() {
     let e = parse_msh(&bin, "bad.msh").unwrap_err();
     assert!(matches!(e, MeshError::TooLarge { line: None, .. }), "{e:?}");
 
-    // Garbage in a node coordinate: mshio's error, with the line.
+    // Garbage in a node coordinate: the token, what it should be, the line.
     let text = to_msh41_ascii(&mesh).replace("\n1.0 1.0 1.0\n", "\n1.0 x 1.0\n");
+    let line = 1 + text[..text.find("1.0 x 1.0").unwrap()]
+        .matches('\n')
+        .count();
     let e = err(&text);
-    assert!(matches!(e, MeshError::Parse { line: Some(_), .. }), "{e:?}");
-    let msg = e.to_string();
-    assert!(msg.starts_with("bad.msh:"), "{msg}");
-    assert!(msg.contains("Gmsh MSH 4.1"), "{msg}");
+    assert!(matches!(e, MeshError::BadNumber { .. }), "{e:?}");
+    let msg = message(&e, "bad.msh", Some(line));
+    assert!(msg.contains("y coordinate of node tag"), "{msg}");
 
     // Truncated binary file.
     let bin = to_msh41_binary(&mesh);
@@ -383,5 +388,101 @@ fn error_msh41_huge_count_and_garbage() {
     assert!(
         matches!(e, MeshError::UnknownNodeTag { tag: 999, .. }),
         "{e:?}"
+    );
+}
+
+#[test]
+fn msh41_parametric_nodes_and_skipped_sections() {
+    // Gmsh's "SaveParametric" output: a curve node with u, volume nodes with
+    // u v w; $PhysicalNames and $Entities are skipped.
+    let text = "$MeshFormat
+4.1 0 8
+$EndMeshFormat
+$PhysicalNames
+1
+3 1 \"body\"
+$EndPhysicalNames
+$Nodes
+2 6 1 6
+1 1 1 1
+6
+9 9 9 0.5
+3 1 1 5
+1
+2
+3
+4
+5
+0 0 0 0 0 0
+1 0 0 1 0 0
+0 1 0 0 1 0
+0 0 1 0 0 1
+1 1 1 1 1 1
+$EndNodes
+$Elements
+1 2 1 2
+3 1 4 2
+1 1 2 3 4
+2 2 3 4 5
+$EndElements
+";
+    let mut mesh = parse_msh(text.as_bytes(), "param.msh").unwrap();
+    assert_eq!(mesh.nodes[0], [9.0, 9.0, 9.0]);
+    assert_eq!(drop_unused_nodes(&mut mesh), 1);
+    assert_eq!(mesh, two_tets());
+
+    // A parametric volume node without its three parametric coordinates.
+    let e = err(&text.replace("0 1 0 0 1 0\n", "0 1 0\n"));
+    let msg = message(&e, "bad.msh", Some(21));
+    assert!(msg.contains("6 coordinates of node tag 3"), "{msg}");
+}
+
+#[test]
+fn msh_elements_before_nodes() {
+    let text = MSH2_SMALL.replace(
+        "$Nodes\n5\n10 0 0 0\n20 1 0 0\n30 0 1 0\n40 0 0 1\n50 1 1 1\n$EndNodes\n",
+        "",
+    ) + "$Nodes\n5\n10 0 0 0\n20 1 0 0\n30 0 1 0\n40 0 0 1\n50 1 1 1\n$EndNodes\n";
+    assert_eq!(parse_msh(text.as_bytes(), "late.msh").unwrap(), two_tets());
+}
+
+#[test]
+fn error_wrong_end_marker_is_named() {
+    let e = err(&MSH2_SMALL.replace("$EndNodes", "$EndNode"));
+    let msg = message(&e, "bad.msh", Some(11));
+    assert!(matches!(e, MeshError::Malformed { .. }), "{e:?}");
+    assert!(
+        msg.contains("expected \"$EndNodes\", found \"$EndNode\""),
+        "{msg}"
+    );
+}
+
+#[test]
+fn error_msh41_block_counts() {
+    let mesh = two_tets();
+    let text = to_msh41_ascii(&mesh);
+    // A block holds more elements than the section declares.
+    let e = err(&text.replace("\n3 1 4 2\n", "\n3 1 4 3\n"));
+    assert!(
+        matches!(
+            e,
+            MeshError::CountMismatch {
+                declared: 4,
+                found: 5,
+                ..
+            }
+        ),
+        "{e:?}"
+    );
+    // The section ends inside a block.
+    let cut = text.replace("\n3 1 4 2\n", "\n3 1 4 2\n$EndElements\n");
+    let e = err(&cut);
+    assert!(matches!(e, MeshError::CountMismatch { .. }), "{e:?}");
+    // A node tag line with a coordinate on it.
+    let e = err(&text.replace(&format!("\n{}\n", common::msh::tag(1)), "\n107 1\n"));
+    assert!(matches!(e, MeshError::Malformed { .. }), "{e:?}");
+    assert!(
+        e.to_string().contains("a node tag alone on its line"),
+        "{e}"
     );
 }

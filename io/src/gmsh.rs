@@ -1,19 +1,23 @@
-//! Gmsh `.msh` files: MSH 4.1 (ASCII and binary) through the `mshio` crate, and
-//! MSH 2.x ASCII and the old MSH 1.0 by hand.
+//! Gmsh `.msh` files: ASCII MSH 4.1, 2.x and the old 1.0 by hand, binary MSH 4.1
+//! through the `mshio` crate (feature `gmsh-binary`, on by default).
 //!
-//! `mshio` reads only MSH 4.1. The crates that claim MSH 2 support (`rutile`
-//! 0.1.1, `msh-rw` 0.1.0) are unmaintained since 2020–2021 and describe their MSH 2
-//! support as incomplete or "work in progress", so the ASCII MSH 2 reader below is
-//! hand-written. It is small because only two sections matter (`$Nodes`,
-//! `$Elements`); every other section is skipped. MSH 1.0 (`$NOD` / `$ELM`, e.g.
-//! SOFA's `liver.msh`) has the same structure and shares the code. Binary MSH 2 is
-//! not read ([`MeshError::Unsupported`]).
+//! The ASCII readers are hand-written, need nothing but `std` and share one
+//! reading loop: only two sections matter (`$Nodes`, `$Elements`), every other
+//! section is skipped, and Gmsh writes one record per line (a node tag, a node's
+//! coordinates, an element), which the readers expect and which lets them skip
+//! element types without knowing their node counts. MSH 1.0 (`$NOD` / `$ELM`,
+//! e.g. SOFA's `liver.msh`) has the structure of MSH 2. `$Nodes` may come before
+//! or after `$Elements`. The crates that claim MSH 2 support (`rutile` 0.1.1,
+//! `msh-rw` 0.1.0) are unmaintained since 2020–2021 and describe their MSH 2
+//! support as incomplete; `mshio` reads only MSH 4.1 and pulls in `nom` and `num`,
+//! too much for a small wasm module. Binary MSH 2 is not read
+//! ([`MeshError::Unsupported`]).
 //!
-//! For MSH 4.1, `mshio` does the parsing and error reporting. Two small scans of
-//! the raw bytes surround it: one refuses absurd section counts before `mshio`
-//! allocates, and one reads the node tags in file order, because `mshio` keeps
-//! tags only when they are sparse (and then in a hash map), assuming dense tags are
-//! listed in increasing order, which the format does not promise.
+//! For binary MSH 4.1, `mshio` does the parsing and error reporting. Two small
+//! scans of the raw bytes surround it: one refuses absurd section counts before
+//! `mshio` allocates, and one reads the node tags in file order, because `mshio`
+//! keeps tags only when they are sparse (and then in a hash map), assuming dense
+//! tags are listed in increasing order, which the format does not promise.
 //!
 //! In every version only 4-node tetrahedra (element type 4) are kept; points,
 //! lines, triangles and other types are skipped. Node tags are arbitrary positive
@@ -23,9 +27,11 @@
 
 use std::collections::HashMap;
 
+#[cfg(feature = "gmsh-binary")]
 use mshio::mshfile::ElementType;
 
 use crate::error::{check_count, MeshError};
+#[cfg(feature = "gmsh-binary")]
 use crate::guard::catch_quietly;
 use crate::mesh::Mesh;
 use crate::text::{plural, shorten, tokens, LineReader};
@@ -40,22 +46,31 @@ enum Version {
     V1,
     /// MSH 2.x ASCII.
     V2Ascii,
-    /// MSH 4.1, ASCII or binary.
-    V41,
+    /// MSH 4.1 ASCII.
+    V41Ascii,
+    /// MSH 4.1 binary.
+    #[cfg(feature = "gmsh-binary")]
+    V41Binary,
 }
 
-/// Parses the bytes of a Gmsh `.msh` file of version 1.0, 2.x (ASCII) or 4.1 (ASCII
-/// or binary); the version is detected from the `$MeshFormat` header (MSH 1.0 has
-/// none and starts with `$NOD`).
+/// What [`parse_msh`] reads, for error messages.
+#[cfg(feature = "gmsh-binary")]
+const READABLE: &str = "MSH 4.1 (ASCII or binary), MSH 2.x ASCII and MSH 1.0";
+#[cfg(not(feature = "gmsh-binary"))]
+const READABLE: &str = "MSH 4.1 ASCII, MSH 2.x ASCII and MSH 1.0";
+
+/// Parses the bytes of a Gmsh `.msh` file of version 1.0, 2.x (ASCII) or 4.1
+/// (ASCII, and binary with the `gmsh-binary` feature); the version is detected
+/// from the `$MeshFormat` header (MSH 1.0 has none and starts with `$NOD`).
 ///
 /// `name` is only used in error messages (normally the file name). Declared node
 /// and element counts are checked against [`MAX_COUNT`](crate::MAX_COUNT) before
 /// anything is allocated for them.
 pub fn parse_msh(bytes: &[u8], name: &str) -> Result<Mesh, MeshError> {
     match detect_version(bytes, name)? {
-        Version::V1 => parse_legacy_ascii(utf8(bytes, name)?, name, Version::V1),
-        Version::V2Ascii => parse_legacy_ascii(utf8(bytes, name)?, name, Version::V2Ascii),
-        Version::V41 => parse_v41(bytes, name),
+        #[cfg(feature = "gmsh-binary")]
+        Version::V41Binary => parse_v41_binary(bytes, name),
+        version => parse_ascii(utf8(bytes, name)?, name, version),
     }
 }
 
@@ -152,12 +167,18 @@ fn detect_version(bytes: &[u8], name: &str) -> Result<Version, MeshError> {
         file: name.to_owned(),
         line: ln,
         what: format!(
-            "{what}; readable are MSH 4.1 (ASCII or binary), MSH 2.x ASCII and MSH 1.0 \
+            "{what}; readable are {READABLE} \
              (in Gmsh: File > Export, format \"Version 4.1\" or \"Version 2 ASCII\")"
         ),
     };
     if version == "4.1" {
-        Ok(Version::V41)
+        match binary {
+            false => Ok(Version::V41Ascii),
+            #[cfg(feature = "gmsh-binary")]
+            true => Ok(Version::V41Binary),
+            #[cfg(not(feature = "gmsh-binary"))]
+            true => Err(unsupported("binary MSH 4.1".to_owned())),
+        }
     } else if version == "2" || version.starts_with("2.") {
         if binary {
             Err(unsupported(format!("binary MSH {version}")))
@@ -170,10 +191,10 @@ fn detect_version(bytes: &[u8], name: &str) -> Result<Version, MeshError> {
 }
 
 // ---------------------------------------------------------------------------
-// MSH 1.0 and 2.x ASCII (hand-written)
+// ASCII: MSH 1.0, 2.x and 4.1 (hand-written)
 // ---------------------------------------------------------------------------
 
-/// Section markers of the legacy ASCII versions.
+/// Section markers of the ASCII versions (MSH 2 and 4.1 share theirs).
 struct Markers {
     nodes: &'static str,
     end_nodes: &'static str,
@@ -202,7 +223,16 @@ struct NodeTable {
     index_of: HashMap<u64, usize>,
 }
 
-fn parse_legacy_ascii(text: &str, name: &str, version: Version) -> Result<Mesh, MeshError> {
+/// The tetrahedra of an `$Elements` section as node tags, each with its line
+/// (mapped to indices once every section is read), and how many elements of
+/// other types were skipped.
+#[derive(Default)]
+struct RawTets {
+    tets: Vec<(usize, [u64; 4])>,
+    skipped: usize,
+}
+
+fn parse_ascii(text: &str, name: &str, version: Version) -> Result<Mesh, MeshError> {
     let m = if version == Version::V1 {
         &V1_MARKERS
     } else {
@@ -210,7 +240,7 @@ fn parse_legacy_ascii(text: &str, name: &str, version: Version) -> Result<Mesh, 
     };
     let mut r = LineReader::new(text, name);
     let mut nodes: Option<NodeTable> = None;
-    let mut tets: Option<(Vec<[usize; 4]>, usize)> = None;
+    let mut tets: Option<RawTets> = None;
 
     while let Some((ln, line)) = r.next_line() {
         if line == m.nodes {
@@ -221,7 +251,11 @@ fn parse_legacy_ascii(text: &str, name: &str, version: Version) -> Result<Mesh, 
                     what: format!("a second {} section", m.nodes),
                 });
             }
-            nodes = Some(read_nodes(&mut r, ln, m)?);
+            nodes = Some(if version == Version::V41Ascii {
+                read_nodes_v41(&mut r, ln)?
+            } else {
+                read_nodes(&mut r, ln, m)?
+            });
         } else if line == m.elements {
             if tets.is_some() {
                 return Err(MeshError::Unsupported {
@@ -230,14 +264,11 @@ fn parse_legacy_ascii(text: &str, name: &str, version: Version) -> Result<Mesh, 
                     what: format!("a second {} section", m.elements),
                 });
             }
-            let Some(NodeTable { index_of: tags, .. }) = &nodes else {
-                return Err(r.malformed(
-                    ln,
-                    format!("the {} section before {}", m.nodes, m.elements),
-                    format!("{} first", m.elements),
-                ));
-            };
-            tets = Some(read_elements(&mut r, ln, m, version, tags)?);
+            tets = Some(if version == Version::V41Ascii {
+                read_elements_v41(&mut r, ln)?
+            } else {
+                read_elements(&mut r, ln, m, version)?
+            });
         } else if let Some(section) = line.strip_prefix('$') {
             skip_section(&mut r, ln, section)?;
         } else {
@@ -249,7 +280,11 @@ fn parse_legacy_ascii(text: &str, name: &str, version: Version) -> Result<Mesh, 
         }
     }
 
-    let Some(NodeTable { coords: nodes, .. }) = nodes else {
+    let Some(NodeTable {
+        coords: nodes,
+        index_of,
+    }) = nodes
+    else {
         return Err(MeshError::Malformed {
             file: name.to_owned(),
             line: None,
@@ -257,12 +292,26 @@ fn parse_legacy_ascii(text: &str, name: &str, version: Version) -> Result<Mesh, 
             found: "none".to_owned(),
         });
     };
-    let (tets, skipped) = tets.unwrap_or_default();
-    if tets.is_empty() {
+    let RawTets { tets: raw, skipped } = tets.unwrap_or_default();
+    if raw.is_empty() {
         return Err(MeshError::NoTetrahedra {
             file: name.to_owned(),
             skipped,
         });
+    }
+    let mut tets = Vec::with_capacity(raw.len());
+    for (ln, tags) in raw {
+        let mut tet = [0usize; 4];
+        for (v, tag) in tet.iter_mut().zip(tags) {
+            *v = *index_of
+                .get(&tag)
+                .ok_or_else(|| MeshError::UnknownNodeTag {
+                    file: name.to_owned(),
+                    line: Some(ln),
+                    tag,
+                })?;
+        }
+        tets.push(tet);
     }
     Ok(Mesh { nodes, tets })
 }
@@ -305,6 +354,9 @@ fn expect_end(
     let (ln, line) = r.expect_line(|| format!("\"{end}\""))?;
     if line == end {
         return Ok(());
+    }
+    if line.starts_with('$') {
+        return Err(r.malformed(ln, format!("\"{end}\""), format!("\"{}\"", shorten(line))));
     }
     // Count the surplus entries to say how many there really are.
     let mut found = declared + 1;
@@ -383,8 +435,7 @@ fn read_elements(
     start: usize,
     m: &Markers,
     version: Version,
-    tags: &HashMap<u64, usize>,
-) -> Result<(Vec<[usize; 4]>, usize), MeshError> {
+) -> Result<RawTets, MeshError> {
     let n = read_count(r, "element")?;
     let mut tets = Vec::new();
     let mut skipped = 0;
@@ -450,74 +501,294 @@ fn read_elements(
                 plural(t.len(), "value"),
             ));
         }
-        let mut tet = [0usize; 4];
+        let mut tet = [0u64; 4];
         for (v, tok) in tet.iter_mut().zip(&t[first_node..]) {
-            let tag = r.u64(ln, tok, || "node tag".to_owned())?;
-            *v = *tags.get(&tag).ok_or_else(|| MeshError::UnknownNodeTag {
-                file: r.file().to_owned(),
-                line: Some(ln),
-                tag,
-            })?;
+            *v = r.u64(ln, tok, || "node tag".to_owned())?;
         }
-        tets.push(tet);
+        tets.push((ln, tet));
     }
     expect_end(r, m.end_elements, "element", n)?;
-    Ok((tets, skipped))
+    Ok(RawTets { tets, skipped })
+}
+
+/// Reads a header line of `n` values (`layout` names them) and returns its
+/// line number and tokens.
+fn header<'a>(
+    r: &mut LineReader<'a>,
+    n: usize,
+    layout: &str,
+) -> Result<(usize, Vec<&'a str>), MeshError> {
+    let (ln, line) = r.expect_line(|| format!("\"{layout}\""))?;
+    let t = tokens(line);
+    if t.len() != n {
+        return Err(r.malformed(
+            ln,
+            format!("\"{layout}\" ({n} values)"),
+            plural(t.len(), "value"),
+        ));
+    }
+    Ok((ln, t))
+}
+
+/// A line of a block that is a section marker: the block holds fewer entries
+/// than declared, `found` in all so far.
+fn short_block(
+    r: &LineReader<'_>,
+    ln: usize,
+    what: &str,
+    declared: usize,
+    found: usize,
+) -> MeshError {
+    MeshError::CountMismatch {
+        file: r.file().to_owned(),
+        line: Some(ln),
+        what: what.to_owned(),
+        declared,
+        found,
+    }
+}
+
+/// MSH 4.1 `$Nodes`: a header, then entity blocks of node tags (one per line)
+/// followed by their coordinates (one node per line; a parametric block adds
+/// the entity dimension's number of parametric coordinates, which are skipped).
+fn read_nodes_v41(r: &mut LineReader<'_>, start: usize) -> Result<NodeTable, MeshError> {
+    let (ln, t) = header(
+        r,
+        4,
+        "<numEntityBlocks> <numNodes> <minNodeTag> <maxNodeTag>",
+    )?;
+    let blocks = r.u64(ln, t[0], || "number of node entity blocks".to_owned())?;
+    let blocks = check_count(r.file(), Some(ln), "node entity block", blocks)?;
+    let total = r.u64(ln, t[1], || "number of nodes".to_owned())?;
+    let total = check_count(r.file(), Some(ln), "node", total)?;
+    r.u64(ln, t[2], || "smallest node tag".to_owned())?;
+    r.u64(ln, t[3], || "largest node tag".to_owned())?;
+    let mut coords = Vec::with_capacity(total);
+    let mut index_of: HashMap<u64, usize> = HashMap::with_capacity(total);
+    let mut block_tags = Vec::new();
+    for b in 0..blocks {
+        let (bln, line) = r.expect_line(|| {
+            format!(
+                "node block {} of {blocks} of the $Nodes section on line {start}",
+                b + 1
+            )
+        })?;
+        if line.starts_with('$') {
+            return Err(short_block(r, bln, "nodes", total, coords.len()));
+        }
+        let t = tokens(line);
+        if t.len() != 4 {
+            return Err(r.malformed(
+                bln,
+                "a node block \"<entityDim> <entityTag> <parametric> <numNodesInBlock>\" (4 values)"
+                    .to_owned(),
+                plural(t.len(), "value"),
+            ));
+        }
+        let dim = r.u64(bln, t[0], || "entity dimension (0 to 3)".to_owned())?;
+        r.i64(bln, t[1], || "entity tag".to_owned())?;
+        let parametric = r.u64(bln, t[2], || "parametric flag (0 or 1)".to_owned())?;
+        if dim > 3 || parametric > 1 {
+            return Err(r.malformed(
+                bln,
+                "entity dimension 0 to 3 and parametric flag 0 or 1".to_owned(),
+                format!("{dim} and {parametric}"),
+            ));
+        }
+        let n = r.u64(bln, t[3], || "number of nodes in the block".to_owned())?;
+        let n = check_count(r.file(), Some(bln), "node", n)?;
+        if n > total - coords.len() {
+            return Err(short_block(r, bln, "nodes", total, coords.len() + n));
+        }
+        block_tags.clear();
+        for k in 0..n {
+            let (tln, line) = r.expect_line(|| {
+                format!("node tag {} of {n} of the node block on line {bln}", k + 1)
+            })?;
+            if line.starts_with('$') {
+                return Err(short_block(r, tln, "nodes", total, coords.len() + k));
+            }
+            let t = tokens(line);
+            if t.len() != 1 {
+                return Err(r.malformed(
+                    tln,
+                    format!(
+                        "a node tag alone on its line (node {} of the block on line {bln})",
+                        k + 1
+                    ),
+                    plural(t.len(), "value"),
+                ));
+            }
+            block_tags.push(r.u64(tln, t[0], || "node tag".to_owned())?);
+        }
+        // Parametric coordinates: u on a curve, u v on a surface, u v w in a volume.
+        let values = 3 + if parametric == 1 { dim as usize } else { 0 };
+        for &tag in &block_tags {
+            let (cln, line) = r.expect_line(|| format!("the coordinates of node tag {tag}"))?;
+            let t = tokens(line);
+            if t.len() != values {
+                return Err(r.malformed(
+                    cln,
+                    format!("{values} coordinates of node tag {tag}"),
+                    plural(t.len(), "value"),
+                ));
+            }
+            let mut p = [0.0; 3];
+            for (c, (v, tok)) in p.iter_mut().zip(&t).enumerate() {
+                *v = r.f64(cln, tok, || {
+                    format!("{} coordinate of node tag {tag}", ["x", "y", "z"][c])
+                })?;
+            }
+            if let Some(first) = index_of.insert(tag, coords.len()) {
+                return Err(r.malformed(
+                    cln,
+                    "a unique node tag".to_owned(),
+                    format!(
+                        "tag {tag} again (first used by node {} of the section)",
+                        first + 1
+                    ),
+                ));
+            }
+            coords.push(p);
+        }
+    }
+    if coords.len() != total {
+        return Err(short_block(r, ln, "nodes", total, coords.len()));
+    }
+    expect_end(r, "$EndNodes", "node", total)?;
+    Ok(NodeTable { coords, index_of })
+}
+
+/// MSH 4.1 `$Elements`: a header, then entity blocks of one element type, one
+/// element per line (`<tag> <node tags...>`); blocks of other types than the
+/// 4-node tetrahedron are skipped line by line.
+fn read_elements_v41(r: &mut LineReader<'_>, start: usize) -> Result<RawTets, MeshError> {
+    let (ln, t) = header(
+        r,
+        4,
+        "<numEntityBlocks> <numElements> <minElementTag> <maxElementTag>",
+    )?;
+    let blocks = r.u64(ln, t[0], || "number of element entity blocks".to_owned())?;
+    let blocks = check_count(r.file(), Some(ln), "element entity block", blocks)?;
+    let total = r.u64(ln, t[1], || "number of elements".to_owned())?;
+    let total = check_count(r.file(), Some(ln), "element", total)?;
+    r.u64(ln, t[2], || "smallest element tag".to_owned())?;
+    r.u64(ln, t[3], || "largest element tag".to_owned())?;
+    let mut raw = RawTets::default();
+    let mut seen = 0usize;
+    for b in 0..blocks {
+        let (bln, line) = r.expect_line(|| {
+            format!(
+                "element block {} of {blocks} of the $Elements section on line {start}",
+                b + 1
+            )
+        })?;
+        if line.starts_with('$') {
+            return Err(short_block(r, bln, "elements", total, seen));
+        }
+        let t = tokens(line);
+        if t.len() != 4 {
+            return Err(r.malformed(
+                bln,
+                "an element block \"<entityDim> <entityTag> <elementType> <numElementsInBlock>\" (4 values)"
+                    .to_owned(),
+                plural(t.len(), "value"),
+            ));
+        }
+        r.u64(bln, t[0], || "entity dimension".to_owned())?;
+        r.i64(bln, t[1], || "entity tag".to_owned())?;
+        let ty = r.u64(bln, t[2], || "element type".to_owned())?;
+        let n = r.u64(bln, t[3], || "number of elements in the block".to_owned())?;
+        let n = check_count(r.file(), Some(bln), "element", n)?;
+        if n > total - seen {
+            return Err(short_block(r, bln, "elements", total, seen + n));
+        }
+        for k in 0..n {
+            let (eln, line) = r.expect_line(|| {
+                format!(
+                    "element {} of {n} of the element block on line {bln}",
+                    k + 1
+                )
+            })?;
+            if line.starts_with('$') {
+                return Err(short_block(r, eln, "elements", total, seen + k));
+            }
+            if ty != GMSH_TET4 {
+                raw.skipped += 1;
+                continue;
+            }
+            let t = tokens(line);
+            if t.len() != 5 {
+                return Err(r.malformed(
+                    eln,
+                    "a tetrahedron \"<tag> <n1> <n2> <n3> <n4>\" (5 values)".to_owned(),
+                    plural(t.len(), "value"),
+                ));
+            }
+            r.u64(eln, t[0], || "element tag".to_owned())?;
+            let mut tet = [0u64; 4];
+            for (v, tok) in tet.iter_mut().zip(&t[1..]) {
+                *v = r.u64(eln, tok, || "node tag".to_owned())?;
+            }
+            raw.tets.push((eln, tet));
+        }
+        seen += n;
+    }
+    if seen != total {
+        return Err(short_block(r, ln, "elements", total, seen));
+    }
+    expect_end(r, "$EndElements", "element", total)?;
+    Ok(raw)
 }
 
 // ---------------------------------------------------------------------------
-// MSH 4.1 (mshio)
+// Binary MSH 4.1 (mshio)
 // ---------------------------------------------------------------------------
+
+/// The binary layout of an MSH 4.1 file: the size of its `size_t` in bytes and
+/// whether it is big-endian.
+#[cfg(feature = "gmsh-binary")]
+#[derive(Debug, Clone, Copy)]
+struct Layout {
+    size: usize,
+    big_endian: bool,
+}
 
 /// Reads the two leading counts of the `$Nodes` or `$Elements` section (number of
 /// entity blocks and number of entries) without parsing the rest, so absurd counts
 /// are refused before `mshio` sees them. Returns `None` if the section is absent
 /// or too short; `mshio` then reports the problem.
-fn section_counts(
-    bytes: &[u8],
-    section: &str,
-    binary: Option<(usize, bool)>,
-) -> Option<(usize, u64, u64)> {
+#[cfg(feature = "gmsh-binary")]
+fn section_counts(bytes: &[u8], section: &str, layout: Layout) -> Option<(u64, u64)> {
     let rest = section_body(bytes, section)?;
-    // Line number of the counts: the lines before the section body, plus one.
-    let offset = bytes.len() - rest.len();
-    let line = 1 + bytes[..offset].iter().filter(|&&b| b == b'\n').count();
-    match binary {
-        None => {
-            let end = rest.iter().position(|&b| b == b'\n').unwrap_or(rest.len());
-            let text = std::str::from_utf8(&rest[..end]).ok()?;
-            let t = tokens(text);
-            Some((line, t.first()?.parse().ok()?, t.get(1)?.parse().ok()?))
-        }
-        Some((size, big_endian)) => {
-            let read = |i: usize| Some(uint(rest.get(i * size..(i + 1) * size)?, big_endian));
-            Some((line, read(0)?, read(1)?))
-        }
-    }
+    let read = |i: usize| {
+        Some(uint(
+            rest.get(i * layout.size..(i + 1) * layout.size)?,
+            layout.big_endian,
+        ))
+    };
+    Some((read(0)?, read(1)?))
 }
 
-/// Binary layout of an MSH 4.1 file: `Some((size_t size, big endian))`, or `None`
-/// for ASCII. The header was validated by [`detect_version`].
-fn binary_layout(bytes: &[u8]) -> Option<(usize, bool)> {
+/// The binary layout of an MSH 4.1 file whose header says it is binary, or `None`
+/// if the header does not end as the format requires. The header was validated by
+/// [`detect_version`].
+#[cfg(feature = "gmsh-binary")]
+fn binary_layout(bytes: &[u8]) -> Option<Layout> {
     let head = head_lines(bytes, 2);
-    let t: Vec<String> = head
-        .get(1)?
-        .1
-        .split_ascii_whitespace()
-        .map(str::to_owned)
-        .collect();
-    if t.get(1).map(String::as_str) != Some("1") {
-        return None;
-    }
-    let size: usize = t.get(2)?.parse().ok()?;
+    let size: usize = tokens(&head.get(1)?.1).get(2)?.parse().ok()?;
     // The header line is followed by the integer 1 in the file's byte order.
     let marker = b"\n$EndMeshFormat";
     let end = bytes.windows(marker.len()).position(|w| w == marker)?;
     let one = bytes.get(end.checked_sub(4)?..end)?;
-    Some((size, one == [0, 0, 0, 1]))
+    Some(Layout {
+        size,
+        big_endian: one == [0, 0, 0, 1],
+    })
 }
 
 /// An unsigned integer of `b.len()` (at most 8) bytes.
+#[cfg(feature = "gmsh-binary")]
 fn uint(b: &[u8], big_endian: bool) -> u64 {
     let fold = |v: u64, &byte: &u8| (v << 8) | u64::from(byte);
     if big_endian {
@@ -529,6 +800,7 @@ fn uint(b: &[u8], big_endian: bool) -> u64 {
 
 /// The file from just after the marker line of section `section` (e.g. `$Nodes`)
 /// to its end.
+#[cfg(feature = "gmsh-binary")]
 fn section_body<'a>(bytes: &'a [u8], section: &str) -> Option<&'a [u8]> {
     let marker = format!("\n{section}");
     let pos = bytes
@@ -541,86 +813,63 @@ fn section_body<'a>(bytes: &'a [u8], section: &str) -> Option<&'a [u8]> {
     rest.strip_prefix(b"\n")
 }
 
-/// Reads the node tags of an MSH 4.1 `$Nodes` section in file order, skipping the
-/// coordinates. `None` if the section does not have the expected layout (mshio has
-/// already accepted it, so this means a parametric or otherwise unusual block).
-fn scan_node_tags(bytes: &[u8], binary: Option<(usize, bool)>) -> Option<Vec<u64>> {
+/// Reads the node tags of a binary MSH 4.1 `$Nodes` section in file order,
+/// skipping the coordinates. `None` if the section does not have the expected
+/// layout (mshio has already accepted it, so this means a parametric or otherwise
+/// unusual block).
+#[cfg(feature = "gmsh-binary")]
+fn scan_node_tags(bytes: &[u8], layout: Layout) -> Option<Vec<u64>> {
     let body = section_body(bytes, "$Nodes")?;
     let mut tags = Vec::new();
-    match binary {
-        None => {
-            let text = std::str::from_utf8(body).ok()?;
-            let mut t = text.split_ascii_whitespace();
-            let num = |t: &mut std::str::SplitAsciiWhitespace<'_>| t.next()?.parse::<u64>().ok();
-            let blocks = num(&mut t)?;
-            for _ in 0..3 {
-                num(&mut t)?; // total, min tag, max tag
-            }
-            for _ in 0..blocks {
-                // Entity dimension and tag (signed ints), then parametric flag, count.
-                t.next()?;
-                t.next()?;
-                let (parametric, n) = (num(&mut t)?, num(&mut t)?);
-                if parametric != 0 {
-                    return None;
-                }
-                for _ in 0..n {
-                    tags.push(num(&mut t)?);
-                }
-                // Skip the coordinates (floats).
-                for _ in 0..n.saturating_mul(3) {
-                    t.next()?;
-                }
-            }
+    let mut at = 0usize;
+    let mut read = |len: usize| -> Option<u64> {
+        let b = body.get(at..at.checked_add(len)?)?;
+        at += len;
+        Some(uint(b, layout.big_endian))
+    };
+    let size = layout.size;
+    let blocks = read(size)?;
+    for _ in 0..3 {
+        read(size)?; // total, min tag, max tag
+    }
+    for _ in 0..blocks {
+        // Entity dimension and tag (ints), parametric flag (int), count.
+        let (_dim, _entity, parametric) = (read(4)?, read(4)?, read(4)?);
+        let n = read(size)?;
+        if parametric != 0 {
+            return None;
         }
-        Some((size, big_endian)) => {
-            let mut at = 0usize;
-            let mut read = |len: usize| -> Option<u64> {
-                let b = body.get(at..at.checked_add(len)?)?;
-                at += len;
-                Some(uint(b, big_endian))
-            };
-            let blocks = read(size)?;
-            for _ in 0..3 {
-                read(size)?;
-            }
-            for _ in 0..blocks {
-                let (_dim, _entity, parametric) = (read(4)?, read(4)?, read(4)?);
-                let n = read(size)?;
-                if parametric != 0 {
-                    return None;
-                }
-                for _ in 0..n {
-                    tags.push(read(size)?);
-                }
-                for _ in 0..n.saturating_mul(3) {
-                    read(8)?;
-                }
-            }
+        for _ in 0..n {
+            tags.push(read(size)?);
+        }
+        // Skip the coordinates (doubles).
+        for _ in 0..n.saturating_mul(3) {
+            read(8)?;
         }
     }
     Some(tags)
 }
 
-fn parse_v41(bytes: &[u8], name: &str) -> Result<Mesh, MeshError> {
-    let binary = binary_layout(bytes);
-    for (section, what) in [("$Nodes", "node"), ("$Elements", "element")] {
-        if let Some((line, blocks, count)) = section_counts(bytes, section, binary) {
-            let line = if binary.is_some() { None } else { Some(line) };
-            check_count(name, line, &format!("{what} entity block"), blocks)?;
-            check_count(name, line, what, count)?;
+#[cfg(feature = "gmsh-binary")]
+fn parse_v41_binary(bytes: &[u8], name: &str) -> Result<Mesh, MeshError> {
+    let layout = binary_layout(bytes);
+    if let Some(layout) = layout {
+        for (section, what) in [("$Nodes", "node"), ("$Elements", "element")] {
+            if let Some((blocks, count)) = section_counts(bytes, section, layout) {
+                check_count(name, None, &format!("{what} entity block"), blocks)?;
+                check_count(name, None, what, count)?;
+            }
         }
     }
 
     // mshio 0.4 still has a few `unimplemented!`/`expect` paths.
-    let parsed = catch_quietly(|| {
-        mshio::parse_msh_bytes(bytes).map_err(|e| mshio_error(bytes, name, binary.is_some(), &e))
-    })
-    .ok_or_else(|| MeshError::Parse {
-        file: name.to_owned(),
-        line: None,
-        message: "Gmsh MSH 4.1: the mshio parser failed (panicked) on this file".to_owned(),
-    })?;
+    let parsed =
+        catch_quietly(|| mshio::parse_msh_bytes(bytes).map_err(|e| mshio_error(bytes, name, &e)))
+            .ok_or_else(|| MeshError::Parse {
+            file: name.to_owned(),
+            line: None,
+            message: "Gmsh MSH 4.1: the mshio parser failed (panicked) on this file".to_owned(),
+        })?;
     let msh = parsed?;
 
     let Some(msh_nodes) = msh.data.nodes else {
@@ -648,7 +897,8 @@ fn parse_v41(bytes: &[u8], name: &str) -> Result<Mesh, MeshError> {
             found: coords.len(),
         });
     }
-    let tags = scan_node_tags(bytes, binary)
+    let tags = layout
+        .and_then(|layout| scan_node_tags(bytes, layout))
         .filter(|tags| tags.len() == coords.len())
         .ok_or_else(|| MeshError::Parse {
             file: name.to_owned(),
@@ -719,14 +969,10 @@ fn parse_v41(bytes: &[u8], name: &str) -> Result<Mesh, MeshError> {
     Ok(Mesh { nodes, tets })
 }
 
-/// Turns mshio's error backtrace into a [`MeshError::Parse`] with a line number
-/// (ASCII files) or byte offset (binary files).
-fn mshio_error(
-    bytes: &[u8],
-    name: &str,
-    binary: bool,
-    e: &mshio::MshParserError<&[u8]>,
-) -> MeshError {
+/// Turns mshio's error backtrace into a [`MeshError::Parse`] with the byte
+/// offset where the innermost parser failed.
+#[cfg(feature = "gmsh-binary")]
+fn mshio_error(bytes: &[u8], name: &str, e: &mshio::MshParserError<&[u8]>) -> MeshError {
     let trace = e.filtered_backtrace();
     // Innermost error first; the position is where the innermost parser failed.
     let offset = e
@@ -746,30 +992,12 @@ fn mshio_error(
         Some((_, kind)) => describe(kind),
         None => "invalid MSH 4.1 data".to_owned(),
     });
-    let mut message = parts.join(": ");
-    let line = if binary {
-        message.push_str(&format!(" (at byte offset {offset})"));
-        None
-    } else {
-        // Show the token where parsing stopped.
-        let rest = &bytes[offset.min(bytes.len())..];
-        let token: Vec<u8> = rest
-            .iter()
-            .skip_while(|b| b.is_ascii_whitespace())
-            .take_while(|b| !b.is_ascii_whitespace())
-            .take(40)
-            .copied()
-            .collect();
-        if token.is_empty() {
-            message.push_str(", found end of file");
-        } else {
-            message.push_str(&format!(", found \"{}\"", String::from_utf8_lossy(&token)));
-        }
-        Some(1 + bytes[..offset].iter().filter(|&&b| b == b'\n').count())
-    };
     MeshError::Parse {
         file: name.to_owned(),
-        line,
-        message: format!("Gmsh MSH 4.1: {message}"),
+        line: None,
+        message: format!(
+            "Gmsh MSH 4.1: {} (at byte offset {offset})",
+            parts.join(": ")
+        ),
     }
 }

@@ -40,7 +40,7 @@ impl Drop for TempDir {
 /// The shared test meshes (`../shared/meshes` beside the repository), or `None`
 /// after printing a SKIPPED line if the folder is absent.
 pub fn shared_meshes() -> Option<PathBuf> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/meshes");
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/meshes");
     if dir.is_dir() {
         Some(dir)
     } else {

@@ -6,6 +6,9 @@
 //! by random or by "dangerous" characters (digits, `-`, `.`, `$`, newlines), or
 //! with a stretch cut out.
 
+// Reads VTK and binary MSH among them: needs the feature that reads them.
+#![cfg(all(feature = "vtk", feature = "gmsh-binary"))]
+
 mod common;
 
 use std::panic::{catch_unwind, AssertUnwindSafe};

@@ -3,9 +3,9 @@
 //! of several steps, and the scripted scene whose state hash the wasm module
 //! and the host must agree on ([`hash_script`]).
 //!
-//! Only `corofem` and `std` are used here, so the very same file compiles into
-//! the wasm crate and, through `#[path]`, into the host test
-//! `host-tests/tests/web_hash.rs`: the scene is defined once.
+//! Only `corofem` and `std` are used here. The web demo (`examples/web`)
+//! and the host test `host-tests/tests/web_hash.rs` both use this module:
+//! the scene is defined once.
 
 use std::collections::HashMap;
 
@@ -615,7 +615,7 @@ fn cross(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
 
 /// The expected value of [`hash_script`], stored once for the host test, the
 /// native unit test and the Node test of the wasm module: a `0x…` hex line.
-pub const EXPECTED_HASH: &str = include_str!("../hash_script.txt");
+pub const EXPECTED_HASH: &str = include_str!("web_hash_script.txt");
 
 /// [`EXPECTED_HASH`] as a number.
 pub fn expected_hash() -> Option<u64> {
@@ -628,7 +628,7 @@ pub fn expected_hash() -> Option<u64> {
 /// ground, a clamp, picking, a drag with the tool, a release, and parameter
 /// changes. Returns an FNV-1a hash of the per-part state hashes.
 ///
-/// The expected value is stored once, in `examples/web/hash_script.txt`.
+/// The expected value is stored once, in `test-scenes/src/web_hash_script.txt`.
 pub fn hash_script() -> Result<u64, String> {
     let mut h: u64 = 0xcbf2_9ce4_8422_2325;
     let mut mix = |x: u64| {
@@ -787,7 +787,7 @@ mod tests {
         assert_eq!(
             Some(got),
             expected_hash(),
-            "hash_script() = {got:#018x}; if the change is intended, store it in examples/web/hash_script.txt"
+            "hash_script() = {got:#018x}; if the change is intended, store it in test-scenes/src/web_hash_script.txt"
         );
     }
 }

@@ -278,3 +278,38 @@ fn error_file_name_is_the_path_given() {
         )
     );
 }
+
+/// `parse_mesh` chooses the reader by the content, whatever the name says.
+#[test]
+fn parse_mesh_detects_the_format() {
+    use corofem_io::{parse_mesh, MeshFormat};
+    let mesh = common::two_tets();
+    let tetmesh = corofem_io::format_tetmesh(&mesh);
+    assert_eq!(
+        MeshFormat::detect(tetmesh.as_bytes()),
+        Some(MeshFormat::Tetmesh)
+    );
+    assert_eq!(parse_mesh(tetmesh.as_bytes(), "upload.bin").unwrap(), mesh);
+    let msh = common::msh::to_msh2(&mesh);
+    assert_eq!(MeshFormat::detect(msh.as_bytes()), Some(MeshFormat::Gmsh));
+    assert_eq!(
+        parse_mesh(msh.as_bytes(), "upload").unwrap().tets,
+        mesh.tets
+    );
+    assert_eq!(
+        MeshFormat::detect(b"\n# vtk DataFile Version 3.0\n"),
+        Some(MeshFormat::VtkLegacy)
+    );
+    assert_eq!(
+        MeshFormat::detect(b"<?xml version=\"1.0\"?>\n<VTKFile"),
+        Some(MeshFormat::Vtu)
+    );
+    assert_eq!(MeshFormat::detect(b"$NOD\n1\n"), Some(MeshFormat::Gmsh));
+
+    let e = parse_mesh(b"\n\nhello\n", "upload").unwrap_err();
+    let msg = common::message(&e, "upload", Some(3));
+    assert!(msg.contains("a mesh file"), "{msg}");
+    assert!(msg.contains("found \"hello\""), "{msg}");
+    let e = parse_mesh(b"  \n", "upload").unwrap_err();
+    assert!(matches!(e, MeshError::Truncated { .. }), "{e:?}");
+}
