@@ -9,7 +9,8 @@
 #     and print the host's hash. The reference size is also built with
 #     the Rust stiffness product instead of the assembly one (fpu-product),
 #     with libm's software square root instead of vsqrt as well, and tuned
-#     for the Cortex-M4 with the assembly's VMUL+VADD form: same hash;
+#     for the Cortex-M4 with the assembly's VMUL+VADD form
+#     (_fpu-product-vmul): same hash;
 #  4. panic-freedom: every release build above links only because no
 #     panicking branch is left (the panic handler calls an undefined
 #     symbol); the negative control adds one bounds check and must fail to
@@ -153,9 +154,9 @@ step "firmware with the Rust stiffness product instead of the assembly one ($REF
 run_firmware "$REFERENCE" rust-prod --no-default-features --features fpu-sqrt
 step "firmware with libm's software sqrt and the Rust product ($REFERENCE)"
 run_firmware "$REFERENCE" libm --no-default-features
-step "firmware tuned for the Cortex-M4 (-C target-cpu=cortex-m4 and fpu-product-vmul: VMUL+VADD instead of VMLA) ($REFERENCE)"
+step "firmware tuned for the Cortex-M4 (-C target-cpu=cortex-m4 and _fpu-product-vmul: VMUL+VADD instead of VMLA) ($REFERENCE)"
 FW_RUSTFLAGS="-C target-cpu=cortex-m4" FW_TARGET_DIR="$CARGO_TARGET_DIR/firmware-cortex-m4" \
-  run_firmware "$REFERENCE" cortex-m4 --features fpu-product-vmul
+  run_firmware "$REFERENCE" cortex-m4 --features _fpu-product-vmul
 
 step "panic-freedom: negative control"
 if (cd "$FW" && cargo build --release --features panic-negative-control) >"$OUT/negative.txt" 2>&1; then
@@ -204,7 +205,7 @@ step "cost per scene size (Qr, 5 CG iterations, 500 steps)"
 } | tee "$OUT/summary.txt"
 echo "(build: vsqrt = default (fpu-sqrt, fpu-product: the assembly product with VMLA),"
 echo " rust-prod = vsqrt and the Rust product, libm = software sqrt and the Rust product,"
-echo " cortex-m4 = -C target-cpu=cortex-m4 and fpu-product-vmul (VMUL+VADD);"
+echo " cortex-m4 = -C target-cpu=cortex-m4 and _fpu-product-vmul (VMUL+VADD);"
 echo " stack: bytes of one step; flash, ram: bytes of the image;"
 echo " ram+stk: with the peak stack, which is the mesh generation's scratch)"
 

@@ -119,6 +119,7 @@ impl From<Error> for Failure {
             Error::NodeOutOfRange { node } => (Status::IndexOutOfRange, Some(node)),
             Error::ElementOutOfRange { element } => (Status::IndexOutOfRange, Some(element)),
             Error::InvalidParameter { .. } => (Status::InvalidArgument, None),
+            Error::MethodNotCompiled { .. } => (Status::Unsupported, None),
             Error::NotBuilt => (Status::NotBuilt, None),
             // The static solve is not part of the C API.
             Error::Unconstrained => (Status::InvalidArgument, None),

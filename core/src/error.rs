@@ -2,6 +2,8 @@
 
 use core::fmt;
 
+use crate::element::Method;
+
 /// Why building or configuring a scene failed. The scene is unchanged after
 /// every error.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -89,6 +91,12 @@ pub enum Error {
         /// The parameter's name, as in the settings struct.
         name: &'static str,
     },
+    /// The element method is not compiled into this build: enable the
+    /// `corofem` feature [`Method::feature`].
+    MethodNotCompiled {
+        /// The method asked for.
+        method: Method,
+    },
     /// The operation needs a built scene.
     NotBuilt,
     /// A static solve needs something that holds the body: fixed nodes or the tool.
@@ -138,6 +146,12 @@ impl fmt::Display for Error {
             Error::NodeOutOfRange { node } => write!(f, "node {node} does not exist"),
             Error::ElementOutOfRange { element } => write!(f, "element {element} does not exist"),
             Error::InvalidParameter { name } => write!(f, "parameter `{name}` is out of range"),
+            Error::MethodNotCompiled { method } => write!(
+                f,
+                "element method `{}` is not compiled into this build (corofem feature `{}`)",
+                method.name(),
+                method.feature()
+            ),
             Error::NotBuilt => write!(f, "the scene has not been built"),
             Error::Unconstrained => {
                 write!(f, "a static solve needs fixed nodes or a grabbing tool")

@@ -61,17 +61,25 @@
 //!
 //! ## Features
 //!
+//! Every feature is additive. Names that start with `_` tune or demonstrate
+//! and are not part of the stable interface.
+//!
 //! | feature | what |
 //! |---|---|
 //! | `qr` (default) | the paper's QR method |
-//! | `polar`, `linear`, `qr-rest-b` | the other element methods |
-//! | `ground`, `tool`, `loads`, `statics`, `diagnostics` | ground contact, haptic tool, constant nodal forces, static solve, energies and momenta |
+//! | `polar`, `linear` | the other element methods |
+//! | `qr-rest-b` | SOFA's QR method with `B` frozen at rest: a demonstration of ghost torques |
+//! | `ground`, `tool`, `loads`, `statics`, `diagnostics` | ground contact, haptic tool, constant nodal forces, static solve, energies and momenta (and [`StepStats::elastic_energy`]) |
 //! | `full` | all of the above |
-//! | `libm` (default) / `micromath` | math backend (exactly one) |
+//! | `libm` (default) / `micromath` | math backend: correctly rounded / fast and approximate; `libm` wins when both are on, one is needed |
 //! | `fpu-sqrt` | square root with the FPU's `vsqrt.f32` on bare-metal Arm hard-float targets (Cortex-M4F/M7), bit-identical to `libm` |
 //! | `fpu-product` | the CG's stiffness product in FPU assembly (`vldm`/`vstm`) on the same targets, bit-identical to the Rust product |
-//! | `fpu-product-vmul` | `fpu-product` with `vmul` + `vadd` instead of `vmla`: more instructions, fewer cycles on a Cortex-M4 |
+//! | `_fpu-product-vmul` | tuning: `fpu-product` with `vmul` + `vadd` instead of `vmla`: more instructions, fewer cycles on a Cortex-M4 |
 //! | `defmt` | `defmt::Format` on public types |
+//!
+//! Every [`Method`] exists in every build; a scene refuses one whose feature
+//! is off ([`Error::MethodNotCompiled`]), and [`Method::COMPILED`] lists the
+//! others.
 #![no_std]
 // No unsafe code, except the square root instruction (math.rs: SSE's
 // `sqrtss` intrinsic on x86, the FPU's `vsqrt.f32` behind `fpu-sqrt`), the

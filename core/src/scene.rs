@@ -842,3 +842,67 @@ fn lame_finite(stiffness: f32, per_young: [f32; 2]) -> bool {
     let [l, m] = lame(stiffness, per_young);
     l.is_finite() && m.is_finite()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::BoxMesh;
+
+    /// A 2×2×2-cell cube (27 nodes, 48 tetrahedra) held at `x = 0`.
+    type Cube = StaticScene<27, { element_blocks(48) }>;
+
+    fn cube() -> Cube {
+        let mesh = BoxMesh {
+            size: [0.1; 3],
+            cells: [2; 3],
+            tets_per_cell: 6,
+        };
+        let mut nodes = [[0.0f32; 3]; 27];
+        let mut tets = [[0u32; 4]; 48];
+        let (n, t) = mesh.generate(&mut nodes, &mut tets).unwrap();
+        let mut scene = Cube::new();
+        scene
+            .build(
+                &nodes[..n],
+                &tets[..t],
+                &Material::DEFAULT,
+                BuildOptions::default(),
+            )
+            .unwrap();
+        let held: [u32; 9] = core::array::from_fn(|k| 3 * k as u32);
+        scene.fix_nodes(&held).unwrap();
+        scene
+    }
+
+    /// Every method can be asked for in every build; one whose feature is
+    /// off is refused by each setter that takes a method, and nothing
+    /// changes (CI runs the core's unit tests with `qr` alone, where three
+    /// methods are missing).
+    #[test]
+    fn a_method_not_compiled_in_is_refused_and_changes_nothing() {
+        let mut scene = cube();
+        let mut twin = cube();
+        scene.step().unwrap();
+        twin.step().unwrap();
+        let settings = *scene.settings();
+        for method in Method::VARIANTS {
+            let with = Settings { method, ..settings };
+            let results = [scene.set_settings(with), scene.set_method(method)];
+            if method.is_compiled() {
+                assert_eq!(results, [Ok(()), Ok(())], "{method:?}");
+                assert_eq!(scene.settings().method, method);
+                scene.set_settings(settings).unwrap();
+            } else {
+                let refused = Err(Error::MethodNotCompiled { method });
+                assert_eq!(results, [refused, refused], "{method:?}");
+                assert_eq!(with.validate(), refused);
+            }
+            assert_eq!(*scene.settings(), settings, "{method:?}");
+            assert_eq!(scene.state_hash(), twin.state_hash(), "{method:?}");
+        }
+        // The refusals left nothing behind that the next step sees.
+        scene.step().unwrap();
+        twin.step().unwrap();
+        assert_eq!(scene.state_hash(), twin.state_hash());
+    }
+}

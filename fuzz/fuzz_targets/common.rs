@@ -81,7 +81,7 @@ pub fn material(u: &mut Unstructured) -> Result<Material> {
 
 /// Step settings, valid or not.
 pub fn settings(u: &mut Unstructured) -> Result<Settings> {
-    let method = *u.choose(Method::ALL)?;
+    let method = *u.choose(Method::COMPILED)?;
     let dt = if u.ratio(1u8, 8)? {
         any_f32(u)?
     } else {

@@ -242,7 +242,7 @@ fn report(
             "libm"
         })
         .str(" product=")
-        .str(if cfg!(feature = "fpu-product-vmul") {
+        .str(if cfg!(feature = "_fpu-product-vmul") {
             "asm-vmul"
         } else if cfg!(feature = "fpu-product") {
             "asm-vmla"
