@@ -25,13 +25,26 @@ pub struct BuildOptions {
 }
 
 /// Everything about a scene that is not per node or per element.
+///
+/// [`Header::EMPTY`], and with it an empty [`StaticScene`], is all zero
+/// bits, so that a `static` scene lands in `.bss` and costs no flash (an
+/// initial value with one non-zero byte puts the whole scene in `.data`,
+/// whose image is stored in flash as well: 27 kB more for the firmware
+/// example's 240 tetrahedra). `.ci/firmware.sh` checks it.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Header {
     pub(crate) n_nodes: usize,
     pub(crate) n_elems: usize,
     pub(crate) poisson: f32,
     pub(crate) density: f32,
+    /// The step settings when `settings_valid`; the step and the solvers
+    /// read them through a [`View`], which makes them valid.
     pub(crate) settings: Settings,
+    /// Whether `settings` holds the scene's settings. When not (an empty
+    /// header, where they are [`Settings::ZERO`]) the defaults apply: the
+    /// non-zero defaults are written on first use instead of being part of
+    /// the initial value.
+    pub(crate) settings_valid: bool,
     pub(crate) time: f64,
     pub(crate) inverted: u32,
     /// Some node is fixed (kept by `fix_nodes`/`unfix_all` so the step need
@@ -54,12 +67,23 @@ impl Header {
         lame_per_young(self.poisson)
     }
 
+    /// Makes the default settings the scene's own. Out of line: it runs at
+    /// most once per scene, and every caller of `Scene::view` (the step
+    /// among them) keeps only the test.
+    #[cold]
+    #[inline(never)]
+    fn write_default_settings(&mut self) {
+        self.settings = Settings::new();
+        self.settings_valid = true;
+    }
+
     const EMPTY: Self = Self {
         n_nodes: 0,
         n_elems: 0,
         poisson: 0.0,
         density: 0.0,
-        settings: Settings::new(),
+        settings: Settings::ZERO,
+        settings_valid: false,
         time: 0.0,
         inverted: 0,
         any_fixed: false,
@@ -168,6 +192,9 @@ impl<S: Storage> Scene<S> {
 
     #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
     pub(crate) fn view(&mut self) -> View<'_> {
+        if !self.hdr.settings_valid {
+            self.hdr.write_default_settings();
+        }
         let (n, e) = (self.hdr.n_nodes, self.hdr.n_elems);
         #[cfg(feature = "tool")]
         let n_grabs = self.hdr.tool.count as usize;
@@ -363,10 +390,15 @@ impl<S: Storage> Scene<S> {
         self.hdr.n_elems
     }
 
-    /// The step settings.
+    /// The step settings ([`Settings::default`] until set).
     #[must_use]
     pub fn settings(&self) -> &Settings {
-        &self.hdr.settings
+        const DEFAULTS: Settings = Settings::new();
+        if self.hdr.settings_valid {
+            &self.hdr.settings
+        } else {
+            &DEFAULTS
+        }
     }
 
     /// Replaces the step settings after validating them. Switching to the
@@ -374,12 +406,13 @@ impl<S: Storage> Scene<S> {
     pub fn set_settings(&mut self, settings: Settings) -> Result<(), Error> {
         settings.validate()?;
         #[cfg(feature = "polar")]
-        if settings.method == Method::Polar && self.hdr.settings.method != Method::Polar {
+        if settings.method == Method::Polar && self.settings().method != Method::Polar {
             for block in self.view().elems.iter_mut() {
                 block.rot = ElementBlock::EMPTY.rot;
             }
         }
         self.hdr.settings = settings;
+        self.hdr.settings_valid = true;
         Ok(())
     }
 
@@ -387,7 +420,7 @@ impl<S: Storage> Scene<S> {
     pub fn set_method(&mut self, method: Method) -> Result<(), Error> {
         self.set_settings(Settings {
             method,
-            ..self.hdr.settings
+            ..*self.settings()
         })
     }
 
@@ -872,6 +905,54 @@ mod tests {
         let held: [u32; 9] = core::array::from_fn(|k| 3 * k as u32);
         scene.fix_nodes(&held).unwrap();
         scene
+    }
+
+    /// An empty scene's header is all zero bits, field by field (what puts
+    /// a `static` scene in `.bss`; `.ci/firmware.sh` checks the section of
+    /// a real one), and reports the default settings.
+    #[test]
+    fn an_empty_scene_is_zero_bits_and_has_the_default_settings() {
+        let h = Cube::new().hdr;
+        let s = h.settings;
+        let floats = [h.poisson, h.density, s.dt, s.cg_tolerance]
+            .into_iter()
+            .chain([s.rayleigh_mass, s.rayleigh_stiffness])
+            .chain(s.gravity);
+        assert!(floats.map(f32::to_bits).all(|b| b == 0));
+        assert_eq!(
+            (h.n_nodes, h.n_elems, h.inverted, h.time.to_bits()),
+            (0, 0, 0, 0)
+        );
+        assert_eq!((s.method as u8, s.cg_iterations), (0, 0));
+        assert!(!s.warm_start && !h.settings_valid && !h.any_fixed);
+        #[cfg(feature = "ground")]
+        assert!(h.ground.is_none());
+        #[cfg(feature = "tool")]
+        {
+            let t = h.tool;
+            assert_eq!((t.k_node.to_bits(), t.count), (0, 0));
+            assert!(t.target.iter().all(|x| x.to_bits() == 0));
+        }
+        #[cfg(feature = "loads")]
+        assert_eq!(h.n_loads, 0);
+        assert_eq!(*Cube::new().settings(), Settings::default());
+    }
+
+    /// A scene whose settings were never set steps with the defaults: the
+    /// bits of one given them explicitly.
+    #[test]
+    fn unset_settings_step_as_the_defaults() {
+        let mut unset = cube();
+        let mut given = cube();
+        given.set_settings(Settings::default()).unwrap();
+        for _ in 0..3 {
+            let (a, b) = (unset.step().unwrap(), given.step().unwrap());
+            assert_eq!(a.cg_iterations, b.cg_iterations);
+            assert_eq!(a.cg_residual.to_bits(), b.cg_residual.to_bits());
+        }
+        assert_eq!(unset.state_hash(), given.state_hash());
+        assert_eq!(unset.time(), 3.0 * f64::from(Settings::default().dt));
+        assert_eq!(unset.settings(), given.settings());
     }
 
     /// Every method can be asked for in every build; one whose feature is
