@@ -114,14 +114,14 @@ fn main() -> Res<()> {
 /// 2 warm-up steps) and returns (ms per step of the fastest round, mean CG
 /// iterations). The fastest round filters out other processes on a shared
 /// machine.
-fn time_steps(scene: &mut corofem_io::HeapScene, min_s: f64, max_steps: usize) -> (f64, f64) {
+fn time_steps(scene: &mut corofem::VecScene, min_s: f64, max_steps: usize) -> (f64, f64) {
     time_steps_with(scene, min_s, max_steps, corofem_io::fast::step)
 }
 
 /// [`time_steps`] with a given stepping function (the run-time dispatch of
 /// `corofem_io::fast`, or the baseline `Scene::step`).
 fn time_steps_with(
-    scene: &mut corofem_io::HeapScene,
+    scene: &mut corofem::VecScene,
     min_s: f64,
     max_steps: usize,
     step: Stepper,
@@ -140,7 +140,7 @@ fn time_steps_with(
 }
 
 /// One step of a heap scene.
-type Stepper = fn(&mut corofem_io::HeapScene) -> Result<corofem::StepStats, corofem::StepError>;
+type Stepper = fn(&mut corofem::VecScene) -> Result<corofem::StepStats, corofem::StepError>;
 
 /// The 10 368-tet cube (`cube_13n_t6`'s grid), Qr, 5 CG iterations, dt 1 ms:
 /// the baseline build's step against the one compiled for the instruction set
@@ -178,7 +178,7 @@ fn isa(o: &Opts, md: &mut String) -> Res<()> {
 }
 
 fn time_round(
-    scene: &mut corofem_io::HeapScene,
+    scene: &mut corofem::VecScene,
     min_s: f64,
     max_steps: usize,
     step: Stepper,
@@ -675,7 +675,7 @@ fn method_runs(
                     }
                 }
                 let u = || {
-                    (0..sc.node_count())
+                    (0..sc.node_count() as u32)
                         .map(|i| sc.displacement(i).unwrap_or([f32::NAN; 3]).map(f64::from))
                 };
                 e_s += traj.sq_err(s, u());

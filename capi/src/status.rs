@@ -110,13 +110,13 @@ impl From<Error> for Failure {
             | Error::TooManyGrabbed { .. }
             | Error::TooManyLoads { .. } => (Status::Capacity, None),
             Error::NoElements => (Status::NoElements, None),
-            Error::NonFiniteCoordinate { node } => (Status::NonFiniteCoordinate, Some(node)),
+            Error::NonFiniteCoordinate { node } => (Status::NonFiniteCoordinate, index(node)),
             Error::NodeIndexOutOfRange { element, .. } => (Status::IndexOutOfRange, Some(element)),
             Error::RepeatedNode { element, .. } => (Status::RepeatedNode, Some(element)),
             Error::DegenerateElement { element } => (Status::DegenerateElement, Some(element)),
             Error::InvertedElement { element } => (Status::InvertedElement, Some(element)),
-            Error::UnusedNode { node } => (Status::UnusedNode, Some(node)),
-            Error::NodeOutOfRange { node } => (Status::IndexOutOfRange, Some(node)),
+            Error::UnusedNode { node } => (Status::UnusedNode, index(node)),
+            Error::NodeOutOfRange { node } => (Status::IndexOutOfRange, index(node)),
             Error::ElementOutOfRange { element } => (Status::IndexOutOfRange, Some(element)),
             Error::InvalidParameter { .. } => (Status::InvalidArgument, None),
             Error::MethodNotCompiled { .. } => (Status::Unsupported, None),
@@ -127,6 +127,11 @@ impl From<Error> for Failure {
         };
         Self { status, at }
     }
+}
+
+/// A node index as the C API reports it (`size_t`).
+fn index(node: u32) -> Option<usize> {
+    usize::try_from(node).ok()
 }
 
 impl From<StepError> for Failure {

@@ -70,6 +70,7 @@
 //! | `polar`, `linear` | the other element methods |
 //! | `qr-rest-b` | SOFA's QR method with `B` frozen at rest: a demonstration of ghost torques |
 //! | `ground`, `tool`, `loads`, `statics`, `diagnostics` | ground contact, haptic tool, constant nodal forces, static solve, energies and momenta (and [`StepStats::elastic_energy`]) |
+//! | `alloc` | [`VecStorage`] and [`VecScene`]: storage in `Vec`s, sized at run time (the solver never allocates) |
 //! | `full` | all of the above |
 //! | `libm` (default) / `micromath` | math backend: correctly rounded / fast and approximate; `libm` wins when both are on, one is needed |
 //! | `fpu-sqrt` | square root with the FPU's `vsqrt.f32` on bare-metal Arm hard-float targets (Cortex-M4F/M7), bit-identical to `libm` |
@@ -96,6 +97,9 @@
 // `x % LANES` is `0` where a block holds one element (`LANES == 1`, e.g. a
 // Cortex-M4F): the same code serves both, on purpose.
 #![allow(clippy::modulo_one)]
+
+#[cfg(feature = "alloc")]
+extern crate alloc;
 
 mod cg;
 mod element;
@@ -133,19 +137,21 @@ pub use element::{element_blocks, ElementBlock, Method};
 /// run in vector lanes (x86, x86_64, AArch64, wasm32 with `simd128`), 1
 /// elsewhere (e.g. a Cortex-M4F).
 pub const ELEMENTS_PER_BLOCK: usize = lanes::LANES;
-pub use error::{Error, StepError};
+pub use error::{Error, Parameter, StepError};
 #[cfg(feature = "ground")]
 pub use ground::Plane;
 pub use material::Material;
 pub use math::Vec3;
 pub use mesh_gen::BoxMesh;
+#[cfg(feature = "alloc")]
+pub use scene::VecScene;
 pub use scene::{BuildOptions, Scene, StaticScene};
 pub use settings::{Settings, StepStats};
 #[cfg(feature = "statics")]
 pub use statics::{NewtonStats, StaticSettings};
-pub use storage::{
-    ArrayStorage, Node, NodeEntry, NodeWork, OwnedStorage, PartsMut, SliceStorage, Storage,
-};
+#[cfg(feature = "alloc")]
+pub use storage::VecStorage;
+pub use storage::{ArrayStorage, Node, NodeEntry, NodeWork, SliceStorage, Storage};
 
 /// The README's code examples, compiled and run as doctests (they use the tool).
 #[cfg(all(doctest, feature = "tool"))]

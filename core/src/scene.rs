@@ -1,7 +1,7 @@
 //! The scene: a validated mesh, its material and state, and the public API.
 
 use crate::element::{block_and_lane, element_blocks, qr, Element, ElementBlock, Method};
-use crate::error::{Error, StepError};
+use crate::error::{Error, Parameter, StepError};
 use crate::lanes::LANES;
 use crate::material::{
     element_stiffness, lame, lame_per_young, validate_poisson, validate_young, Material,
@@ -99,8 +99,22 @@ impl Header {
 /// A soft body: tetrahedral mesh, material, state, constraints and loads.
 ///
 /// Generic over where its data lives: [`StaticScene`] keeps everything in
-/// arrays of fixed capacity (a `static` on a microcontroller), and
+/// arrays of fixed capacity (a `static` on a microcontroller), `VecScene`
+/// in `Vec`s sized at run time (feature `alloc`), and
 /// [`Scene::with_storage`] takes any other [`Storage`] (caller-owned slices).
+///
+/// # Node indices
+///
+/// A node is named by a `u32` everywhere: in the tetrahedra given to
+/// [`Scene::build`], in node lists ([`Scene::fix_nodes`], `Scene::grab`), in
+/// per-node getters and setters ([`Scene::position`], `Scene::set_force`),
+/// in [`Scene::element_nodes`] and in errors. `u32` because it is the width
+/// of mesh files and of the C API, and the same on every target (a `usize`
+/// is not), so an index read from a file reaches the scene unchanged and an
+/// out-of-range one is reported, not truncated. The elements keep `u16`
+/// indices inside (at most 65 536 nodes, [`Scene::node_capacity`]); that is a
+/// storage detail. Counts, and elements, which are positions in the
+/// caller's slice of tetrahedra, are `usize`.
 ///
 /// ```
 /// use corofem::{BuildOptions, Material, StaticScene};
@@ -149,6 +163,22 @@ impl<const N: usize, const B: usize, const G: usize, const L: usize> Default
     }
 }
 
+/// A scene in `Vec`s sized at run time (feature `alloc`), for host programs
+/// whose meshes are known only when they run: every node can be grabbed or
+/// loaded.
+#[cfg(feature = "alloc")]
+pub type VecScene = Scene<crate::storage::VecStorage>;
+
+#[cfg(feature = "alloc")]
+impl Scene<crate::storage::VecStorage> {
+    /// An empty scene with room for exactly `nodes` nodes and `elements`
+    /// tetrahedra: [`VecStorage::with_capacity`](crate::VecStorage::with_capacity).
+    #[must_use]
+    pub fn with_capacity(nodes: usize, elements: usize) -> Self {
+        Self::with_storage(crate::storage::VecStorage::with_capacity(nodes, elements))
+    }
+}
+
 /// Mutable access to the used part of every slot array.
 pub(crate) struct View<'a> {
     pub(crate) hdr: &'a mut Header,
@@ -166,8 +196,8 @@ pub(crate) struct View<'a> {
     pub(crate) loads: &'a mut [crate::storage::NodeEntry],
 }
 
-/// Largest node count that `u16` indices address.
-const MAX_U16_NODES: usize = 1 << 16;
+/// Most nodes a scene holds: what the elements' `u16` node indices address.
+pub(crate) const MAX_NODES: usize = 1 << 16;
 
 impl<S: Storage> Scene<S> {
     /// An empty scene over `store`.
@@ -181,7 +211,7 @@ impl<S: Storage> Scene<S> {
     /// Node capacity of the storage (at most 65 536 are usable).
     #[must_use]
     pub fn node_capacity(&self) -> usize {
-        self.store.parts().0.len().min(MAX_U16_NODES)
+        self.store.parts().0.len().min(MAX_NODES)
     }
 
     /// Element capacity of the storage (blocks × elements per block).
@@ -212,6 +242,11 @@ impl<S: Storage> Scene<S> {
             #[cfg(feature = "loads")]
             loads: p.loads.get_mut(..n_loads).unwrap_or_default(),
         }
+    }
+
+    /// Node `i`, if the scene has it.
+    fn node(&self, i: u32) -> Option<&Node> {
+        self.nodes().get(i as usize)
     }
 
     fn nodes(&self) -> &[Node] {
@@ -264,8 +299,9 @@ impl<S: Storage> Scene<S> {
         if tets.is_empty() {
             return Err(Error::NoElements);
         }
+        // `as u32`: below the node capacity (at most `MAX_NODES`), checked above.
         if let Some(node) = positions.iter().position(|p| !is_finite3(*p)) {
-            return Err(Error::NonFiniteCoordinate { node });
+            return Err(Error::NonFiniteCoordinate { node: node as u32 });
         }
         let per_young = lame_per_young(material.poisson);
         let PartsMut {
@@ -320,7 +356,7 @@ impl<S: Storage> Scene<S> {
             .take(positions.len())
             .position(|w| w.inv_p == 0.0)
         {
-            return Err(Error::UnusedNode { node });
+            return Err(Error::UnusedNode { node: node as u32 });
         }
         // Pass 2: write.
         for (slot, p) in nodes.iter_mut().zip(positions) {
@@ -432,38 +468,38 @@ impl<S: Storage> Scene<S> {
 
     /// Current position of node `i` (m).
     #[must_use]
-    pub fn position(&self, i: usize) -> Option<Vec3> {
-        self.nodes().get(i).map(Node::position)
+    pub fn position(&self, i: u32) -> Option<Vec3> {
+        self.node(i).map(Node::position)
     }
 
     /// Rest position of node `i` (m).
     #[must_use]
-    pub fn rest_position(&self, i: usize) -> Option<Vec3> {
-        self.nodes().get(i).map(|n| n.x0)
+    pub fn rest_position(&self, i: u32) -> Option<Vec3> {
+        self.node(i).map(|n| n.x0)
     }
 
     /// Displacement of node `i` from rest (m).
     #[must_use]
-    pub fn displacement(&self, i: usize) -> Option<Vec3> {
-        self.nodes().get(i).map(|n| n.u)
+    pub fn displacement(&self, i: u32) -> Option<Vec3> {
+        self.node(i).map(|n| n.u)
     }
 
     /// Velocity of node `i` (m/s).
     #[must_use]
-    pub fn velocity(&self, i: usize) -> Option<Vec3> {
-        self.nodes().get(i).map(|n| n.v)
+    pub fn velocity(&self, i: u32) -> Option<Vec3> {
+        self.node(i).map(|n| n.v)
     }
 
     /// Lumped mass of node `i` (kg).
     #[must_use]
-    pub fn mass(&self, i: usize) -> Option<f32> {
-        self.nodes().get(i).map(|n| n.mass)
+    pub fn mass(&self, i: u32) -> Option<f32> {
+        self.node(i).map(|n| n.mass)
     }
 
     /// Whether node `i` is fixed.
     #[must_use]
-    pub fn is_fixed(&self, i: usize) -> bool {
-        self.nodes().get(i).is_some_and(|n| n.flags & FIXED != 0)
+    pub fn is_fixed(&self, i: u32) -> bool {
+        self.node(i).is_some_and(|n| n.flags & FIXED != 0)
     }
 
     /// Current positions of all nodes, in order (m).
@@ -478,8 +514,8 @@ impl<S: Storage> Scene<S> {
 
     /// Node indices of element `e` (as stored: re-oriented if asked).
     #[must_use]
-    pub fn element_nodes(&self, e: usize) -> Option<[u16; 4]> {
-        self.element(e).map(|el| el.nodes)
+    pub fn element_nodes(&self, e: usize) -> Option<[u32; 4]> {
+        self.element(e).map(|el| el.nodes.map(u32::from))
     }
 
     /// Young's modulus of element `e` (Pa). An element keeps `E / (36 V₀)`,
@@ -514,7 +550,9 @@ impl<S: Storage> Scene<S> {
             .ok_or(Error::ElementOutOfRange { element: e })?;
         let stiffness = element_stiffness(young, el.six_v0());
         if !lame_finite(stiffness, per_young) {
-            return Err(Error::InvalidParameter { name: "young" });
+            return Err(Error::InvalidParameter {
+                parameter: Parameter::Young,
+            });
         }
         let (b, j) = block_and_lane(e, self.hdr.n_elems);
         if let Some(block) = self.view().elems.get_mut(b) {
@@ -529,7 +567,9 @@ impl<S: Storage> Scene<S> {
     pub fn set_young_all(&mut self, young: f32) -> Result<(), Error> {
         validate_young(young)?;
         if !self.lame_fits(Some(young), self.hdr.poisson) {
-            return Err(Error::InvalidParameter { name: "young" });
+            return Err(Error::InvalidParameter {
+                parameter: Parameter::Young,
+            });
         }
         self.write_young_all(young);
         Ok(())
@@ -552,7 +592,9 @@ impl<S: Storage> Scene<S> {
     pub fn set_poisson(&mut self, poisson: f32) -> Result<(), Error> {
         validate_poisson(poisson)?;
         if !self.lame_fits(None, poisson) {
-            return Err(Error::InvalidParameter { name: "poisson" });
+            return Err(Error::InvalidParameter {
+                parameter: Parameter::Poisson,
+            });
         }
         self.hdr.poisson = poisson;
         Ok(())
@@ -566,7 +608,9 @@ impl<S: Storage> Scene<S> {
         validate_young(young)?;
         validate_poisson(poisson)?;
         if !self.lame_fits(Some(young), poisson) {
-            return Err(Error::InvalidParameter { name: "young" });
+            return Err(Error::InvalidParameter {
+                parameter: Parameter::Young,
+            });
         }
         self.hdr.poisson = poisson;
         self.write_young_all(young);
@@ -613,10 +657,12 @@ impl<S: Storage> Scene<S> {
     /// range, a non-finite force, or a new loaded node when every load slot
     /// is taken ([`Error::TooManyLoads`]).
     #[cfg(feature = "loads")]
-    pub fn set_force(&mut self, i: usize, force: Vec3) -> Result<(), Error> {
+    pub fn set_force(&mut self, i: u32, force: Vec3) -> Result<(), Error> {
         use crate::storage::LOADED;
         if !is_finite3(force) {
-            return Err(Error::InvalidParameter { name: "force" });
+            return Err(Error::InvalidParameter {
+                parameter: Parameter::Force,
+            });
         }
         let n_loads = self.hdr.n_loads;
         let n_nodes = self.hdr.n_nodes;
@@ -624,11 +670,11 @@ impl<S: Storage> Scene<S> {
         let node = p
             .nodes
             .get_mut(..n_nodes)
-            .and_then(|n| n.get_mut(i))
+            .and_then(|n| n.get_mut(i as usize))
             .ok_or(Error::NodeOutOfRange { node: i })?;
         // The list is in node order: entry `at` is node i's, or where it goes.
         let used = p.loads.get_mut(..n_loads).unwrap_or_default();
-        let at = used.partition_point(|e| (e.node as usize) < i);
+        let at = used.partition_point(|e| e.node < i);
         let remove = force == [0.0; 3];
         if node.flags & LOADED != 0 {
             if remove {
@@ -647,7 +693,7 @@ impl<S: Storage> Scene<S> {
             tail.rotate_right(1);
             if let Some(e) = tail.first_mut() {
                 *e = crate::storage::NodeEntry {
-                    node: i as u32,
+                    node: i,
                     value: force,
                 };
             }
@@ -671,7 +717,7 @@ impl<S: Storage> Scene<S> {
     /// [`Error::InvalidParameter`] and leaves the scene unchanged.
     pub fn set_positions(&mut self, positions: &[Vec3]) -> Result<(), Error> {
         let v = self.view();
-        check_field(positions, v.nodes, "positions", |x0, p| sub(p, x0))?;
+        check_field(positions, v.nodes, Parameter::Positions, |x0, p| sub(p, x0))?;
         for (n, p) in v.nodes.iter_mut().zip(positions) {
             n.u = sub(*p, n.x0);
         }
@@ -683,7 +729,7 @@ impl<S: Storage> Scene<S> {
     /// leaves the scene unchanged.
     pub fn set_displacements(&mut self, displacements: &[Vec3]) -> Result<(), Error> {
         let v = self.view();
-        check_field(displacements, v.nodes, "displacements", add)?;
+        check_field(displacements, v.nodes, Parameter::Displacements, add)?;
         for (n, u) in v.nodes.iter_mut().zip(displacements) {
             n.u = *u;
         }
@@ -693,7 +739,7 @@ impl<S: Storage> Scene<S> {
     /// Sets all velocities (m/s). Fixed nodes keep zero velocity.
     pub fn set_velocities(&mut self, velocities: &[Vec3]) -> Result<(), Error> {
         let v = self.view();
-        check_field(velocities, v.nodes, "velocities", |_, vel| vel)?;
+        check_field(velocities, v.nodes, Parameter::Velocities, |_, vel| vel)?;
         for (n, vel) in v.nodes.iter_mut().zip(velocities) {
             n.v = if n.flags & FIXED != 0 { [0.0; 3] } else { *vel };
         }
@@ -773,16 +819,16 @@ fn oriented(
 ) -> Result<[u32; 4], Error> {
     let n = positions.len();
     for (k, &i) in tet.iter().enumerate() {
-        if i as usize >= n || i as usize >= MAX_U16_NODES {
+        if i as usize >= n || i as usize >= MAX_NODES {
             return Err(Error::NodeIndexOutOfRange {
                 element: e,
-                node: i as usize,
+                node: i,
             });
         }
         if tet[..k].contains(&i) {
             return Err(Error::RepeatedNode {
                 element: e,
-                node: i as usize,
+                node: i,
             });
         }
     }
@@ -850,7 +896,7 @@ fn rest_frame(positions: &[Vec3], t: &[u32; 4]) -> (qr::Frame, f32) {
 
 fn check_nodes(nodes: &[u32], n: usize) -> Result<(), Error> {
     match nodes.iter().find(|&&i| i as usize >= n) {
-        Some(&i) => Err(Error::NodeOutOfRange { node: i as usize }),
+        Some(&i) => Err(Error::NodeOutOfRange { node: i }),
         None => Ok(()),
     }
 }
@@ -860,12 +906,12 @@ fn check_nodes(nodes: &[u32], n: usize) -> Result<(), Error> {
 fn check_field(
     values: &[Vec3],
     nodes: &[Node],
-    name: &'static str,
+    parameter: Parameter,
     implied: impl Fn(Vec3, Vec3) -> Vec3,
 ) -> Result<(), Error> {
     let finite = |(n, v): (&Node, &Vec3)| is_finite3(*v) && is_finite3(implied(n.x0, *v));
     if values.len() != nodes.len() || !nodes.iter().zip(values).all(finite) {
-        return Err(Error::InvalidParameter { name });
+        return Err(Error::InvalidParameter { parameter });
     }
     Ok(())
 }

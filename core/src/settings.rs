@@ -2,7 +2,7 @@
 //! statistics a step returns.
 
 use crate::element::Method;
-use crate::error::Error;
+use crate::error::{Error, Parameter};
 use crate::math::{is_finite3, Vec3};
 
 /// How the scene is stepped.
@@ -69,24 +69,24 @@ impl Settings {
                 method: self.method,
             });
         }
-        let bad = |name| Err(Error::InvalidParameter { name });
+        let bad = |parameter| Err(Error::InvalidParameter { parameter });
         if !(self.dt > 0.0 && self.dt.is_finite()) {
-            return bad("dt");
+            return bad(Parameter::Dt);
         }
         if self.cg_iterations == 0 {
-            return bad("cg_iterations");
+            return bad(Parameter::CgIterations);
         }
         if !(self.cg_tolerance >= 0.0 && self.cg_tolerance.is_finite()) {
-            return bad("cg_tolerance");
+            return bad(Parameter::CgTolerance);
         }
         if !(self.rayleigh_mass >= 0.0 && self.rayleigh_mass.is_finite()) {
-            return bad("rayleigh_mass");
+            return bad(Parameter::RayleighMass);
         }
         if !(self.rayleigh_stiffness >= 0.0 && self.rayleigh_stiffness.is_finite()) {
-            return bad("rayleigh_stiffness");
+            return bad(Parameter::RayleighStiffness);
         }
         if !is_finite3(self.gravity) {
-            return bad("gravity");
+            return bad(Parameter::Gravity);
         }
         Ok(())
     }

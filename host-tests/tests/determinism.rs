@@ -206,7 +206,7 @@ fn element_indices_are_the_inputs_through_the_interleaved_storage() {
     let mut nodes = vec![[0.0f32; 3]; n];
     let mut tets = vec![[0u32; 4]; t];
     mesh.generate(&mut nodes, &mut tets).unwrap();
-    let mut s = corofem_io::heap_scene(n, t);
+    let mut s = corofem::VecScene::with_capacity(n, t);
     let material = Material {
         young: 1.0e6,
         poisson: 0.3,

@@ -17,7 +17,7 @@ static SCENE: Mutex<Block> = Mutex::new(Block::new());
 fn build(s: &mut Block) {
     build_box(s, [0.2, 0.2, 0.2], [2, 2, 2]);
     let face: Vec<u32> = (0..27)
-        .filter(|&i| s.rest_position(i as usize).is_some_and(|p| p[0] == 0.0))
+        .filter(|&i| s.rest_position(i).is_some_and(|p| p[0] == 0.0))
         .collect();
     assert_eq!(face.len(), 9);
     s.fix_nodes(&face).unwrap();

@@ -44,7 +44,7 @@ use std::path::Path;
 
 pub use error::{MeshError, MAX_COUNT};
 pub use gmsh::parse_msh;
-pub use heap::{heap_scene, to_core, HeapScene, HeapStorage};
+pub use heap::to_core;
 pub use mesh::{drop_unused_nodes, Mesh};
 pub use series::{VtkSeries, PVD_NAME};
 pub use stats::{dihedral_angles_deg, mesh_stats, tet_volume, MeshStats, ZERO_VOLUME_RTOL};
