@@ -14,8 +14,8 @@
 #  4. the scene is a `static StaticScene`: an empty scene is all zero bits,
 #     so it must land in .bss. Every build's .data stays under 1 KiB
 #     (MAX_DATA), and the flash images (vectors, code, constants, .data's
-#     initial values) of the builds at every size differ by less than 1 KiB
-#     (MAX_FLASH_SPREAD) while their scenes' RAM grows tenfold: flash is
+#     initial values) of the builds at every size differ by less than 4 KiB
+#     (MAX_FLASH_SPREAD) while their scenes' RAM grows eightfold: flash is
 #     code and constants only;
 #  5. panic-freedom: every release build above links only because no
 #     panicking branch is left (the panic handler calls an undefined
@@ -42,9 +42,11 @@ PROOF_SYMBOL=corofem_firmware_panic_is_reachable
 # Bytes of .data allowed: the runtime's and defmt's few statics. A scene in
 # .data (a non-zero byte in its initial value) is kilobytes.
 MAX_DATA=1024
-# Most bytes by which the flash of the builds at different sizes may differ
-# (the sizes are constants in the code).
-MAX_FLASH_SPREAD=1024
+# Most bytes by which the flash of the builds at different sizes may differ:
+# the capacities are constants that the optimiser folds into the code
+# (1.2 kB apart measured, not growing with the size), while a scene in flash
+# adds 6.5 kB (2x2x2) to 53 kB (20x2x2).
+MAX_FLASH_SPREAD=4096
 
 rm -rf "$OUT"
 mkdir -p "$OUT"
