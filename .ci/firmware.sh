@@ -9,12 +9,19 @@
 #     and print the host's hash. The reference size is also built with
 #     the Rust stiffness product instead of the assembly one (fpu-product),
 #     with libm's software square root instead of vsqrt as well, and tuned
-#     for the Cortex-M4 with the assembly's VMUL+VADD form: same hash;
-#  4. panic-freedom: every release build above links only because no
+#     for the Cortex-M4 with the assembly's VMUL+VADD form
+#     (_fpu-product-vmul): same hash;
+#  4. the scene is a `static StaticScene`: an empty scene is all zero bits,
+#     so it must land in .bss. Every build's .data stays under 1 KiB
+#     (MAX_DATA), and the flash images (vectors, code, constants, .data's
+#     initial values) of the builds at every size differ by less than 4 KiB
+#     (MAX_FLASH_SPREAD) while their scenes' RAM grows eightfold: flash is
+#     code and constants only;
+#  5. panic-freedom: every release build above links only because no
 #     panicking branch is left (the panic handler calls an undefined
 #     symbol); the negative control adds one bounds check and must fail to
 #     link on exactly that symbol;
-#  5. the defmt log is decoded when defmt-print is installed
+#  6. the defmt log is decoded when defmt-print is installed
 #     (COROFEM_INSTALL_DEFMT_PRINT=1 installs it: ~5 minutes).
 #
 # Prints a cost table (instructions per tetrahedron-step, stack, flash,
@@ -32,6 +39,14 @@ QEMU=(qemu-system-arm -machine mps2-an386 -cpu cortex-m4 -nographic -monitor non
       -serial null -semihosting-config enable=on,target=native -icount shift=0 -kernel)
 REFERENCE=10x2x2
 PROOF_SYMBOL=corofem_firmware_panic_is_reachable
+# Bytes of .data allowed: the runtime's and defmt's few statics. A scene in
+# .data (a non-zero byte in its initial value) is kilobytes.
+MAX_DATA=1024
+# Most bytes by which the flash of the builds at different sizes may differ:
+# the capacities are constants that the optimiser folds into the code
+# (1.2 kB apart measured, not growing with the size), while a scene in flash
+# adds 6.5 kB (2x2x2) to 53 kB (20x2x2).
+MAX_FLASH_SPREAD=4096
 
 rm -rf "$OUT"
 mkdir -p "$OUT"
@@ -64,7 +79,8 @@ node --version
 # "cells=10x2x2 ... hash=0x..." lines -> "10x2x2 0x..." pairs.
 pairs() { grep -o 'cells=[0-9x]* .*hash=0x[0-9a-f]\{16\}' | sed -E 's/cells=([0-9x]+) .*hash=(0x[0-9a-f]+)/\1 \2/' | sort -u; }
 # Size in bytes of the ELF's flash (loaded: vectors, code, constants, .data's
-# initial values) and RAM (.data, .bss, .uninit) images.
+# initial values) and RAM (.data, .bss, .uninit) images, and of .data alone
+# (initialised RAM: its image is in flash too).
 elf_sizes() {
   python3 - "$1" <<'EOF'
 import struct, sys
@@ -72,7 +88,7 @@ data = open(sys.argv[1], 'rb').read()
 assert data[:4] == b'\x7fELF' and data[4] == 1, 'a 32-bit ELF'
 shoff, = struct.unpack_from('<I', data, 0x20)
 shentsize, shnum = struct.unpack_from('<HH', data, 0x2e)
-flash = ram = 0
+flash = ram = initialised = 0
 for i in range(shnum):
     _, kind, flags, addr, _, size = struct.unpack_from('<IIIIII', data, shoff + i * shentsize)
     if not flags & 2 or size == 0:  # SHF_ALLOC
@@ -82,7 +98,9 @@ for i in range(shnum):
         flash += size
     if in_ram:
         ram += size
-print(flash, ram)
+        if kind == 1:
+            initialised += size
+print(flash, ram, initialised)
 EOF
 }
 
@@ -127,6 +145,13 @@ run_firmware() {
   fi
   ok "firmware $cells ($variant): release build links, so no panicking branch remains"
   cp "$tdir/thumbv7em-none-eabihf/release/corofem-firmware" "$log.elf"
+  local flash ram data
+  read -r flash ram data < <(elf_sizes "$log.elf")
+  if [ "$data" -le "$MAX_DATA" ]; then
+    ok "firmware $cells ($variant): $flash B of flash, $data B of .data, $ram B of RAM: the static scene is in .bss"
+  else
+    bad "firmware $cells ($variant): $data B of .data (at most $MAX_DATA): the static scene landed in .data and costs flash"
+  fi
   local status=0
   (cd "$OUT" && rm -f defmt.bin && timeout 300 "${QEMU[@]}" "$log.elf") >"$log.txt" 2>&1 || status=$?
   [ -f "$OUT/defmt.bin" ] && mv "$OUT/defmt.bin" "$log.defmt"
@@ -149,13 +174,30 @@ step "firmware in QEMU (thumbv7em-none-eabihf, vsqrt), every size"
 for cells in "${SIZES[@]}"; do
   run_firmware "$cells" vsqrt
 done
+step "flash does not grow with the scene"
+flashes=()
+for cells in "${SIZES[@]}"; do
+  elf="$OUT/fw-$cells-vsqrt.elf"
+  [ -f "$elf" ] && flashes+=("$(elf_sizes "$elf" | cut -d' ' -f1)")
+done
+if [ "${#flashes[@]}" -ne "${#SIZES[@]}" ]; then
+  bad "not every size built"
+else
+  lo="$(printf '%s\n' "${flashes[@]}" | sort -n | head -1)"
+  hi="$(printf '%s\n' "${flashes[@]}" | sort -n | tail -1)"
+  if [ "$((hi - lo))" -lt "$MAX_FLASH_SPREAD" ]; then
+    ok "flash $lo..$hi B at every size (${SIZES[*]}): code and constants only"
+  else
+    bad "flash $lo..$hi B across sizes (${SIZES[*]}): it grows with the scene"
+  fi
+fi
 step "firmware with the Rust stiffness product instead of the assembly one ($REFERENCE)"
 run_firmware "$REFERENCE" rust-prod --no-default-features --features fpu-sqrt
 step "firmware with libm's software sqrt and the Rust product ($REFERENCE)"
 run_firmware "$REFERENCE" libm --no-default-features
-step "firmware tuned for the Cortex-M4 (-C target-cpu=cortex-m4 and fpu-product-vmul: VMUL+VADD instead of VMLA) ($REFERENCE)"
+step "firmware tuned for the Cortex-M4 (-C target-cpu=cortex-m4 and _fpu-product-vmul: VMUL+VADD instead of VMLA) ($REFERENCE)"
 FW_RUSTFLAGS="-C target-cpu=cortex-m4" FW_TARGET_DIR="$CARGO_TARGET_DIR/firmware-cortex-m4" \
-  run_firmware "$REFERENCE" cortex-m4 --features fpu-product-vmul
+  run_firmware "$REFERENCE" cortex-m4 --features _fpu-product-vmul
 
 step "panic-freedom: negative control"
 if (cd "$FW" && cargo build --release --features panic-negative-control) >"$OUT/negative.txt" 2>&1; then
@@ -192,7 +234,7 @@ step "cost per scene size (Qr, 5 CG iterations, 500 steps)"
   for f in "$OUT"/fw-*.txt; do
     line="$(grep -m1 '^corofem-firmware ' "$f")" || continue
     field() { sed -nE "s/.* $1=([^ ]+).*/\\1/p" <<<"$line"; }
-    read -r flash ram < <(elf_sizes "${f%.txt}.elf")
+    read -r flash ram _ < <(elf_sizes "${f%.txt}.elf")
     variant="${f##*/fw-}"
     variant="${variant#*-}"
     variant="${variant%.txt}"
@@ -204,7 +246,7 @@ step "cost per scene size (Qr, 5 CG iterations, 500 steps)"
 } | tee "$OUT/summary.txt"
 echo "(build: vsqrt = default (fpu-sqrt, fpu-product: the assembly product with VMLA),"
 echo " rust-prod = vsqrt and the Rust product, libm = software sqrt and the Rust product,"
-echo " cortex-m4 = -C target-cpu=cortex-m4 and fpu-product-vmul (VMUL+VADD);"
+echo " cortex-m4 = -C target-cpu=cortex-m4 and _fpu-product-vmul (VMUL+VADD);"
 echo " stack: bytes of one step; flash, ram: bytes of the image;"
 echo " ram+stk: with the peak stack, which is the mesh generation's scratch)"
 

@@ -187,7 +187,7 @@ fn round(mut e: impl Engine, steps: usize, tip_nodes: &[usize], r: &Trajectory) 
 
 // ---------------------------------------------------------------- corofem
 
-struct Corofem(corofem_io::HeapScene);
+struct Corofem(corofem::VecScene);
 
 impl Corofem {
     /// The scene with `Qr`, dt and a CG budget of `cg` iterations.
@@ -201,14 +201,14 @@ impl Engine for Corofem {
         self.0.step().expect("corofem step");
     }
     fn displacements(&self) -> Vec<[f64; 3]> {
-        (0..self.0.node_count())
+        (0..self.0.node_count() as u32)
             .map(|i| self.0.displacement(i).expect("node").map(f64::from))
             .collect()
     }
     fn tip(&self, nodes: &[usize]) -> f64 {
         nodes
             .iter()
-            .map(|&i| f64::from(self.0.displacement(i).expect("node")[2]))
+            .map(|&i| f64::from(self.0.displacement(i as u32).expect("node")[2]))
             .sum::<f64>()
             / nodes.len() as f64
     }

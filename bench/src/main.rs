@@ -114,13 +114,13 @@ fn main() -> Res<()> {
 /// 2 warm-up steps) and returns (ms per step of the fastest round, mean CG
 /// iterations). The fastest round filters out other processes on a shared
 /// machine.
-fn time_steps(scene: &mut corofem_io::HeapScene, min_s: f64, max_steps: usize) -> (f64, f64) {
+fn time_steps(scene: &mut corofem::VecScene, min_s: f64, max_steps: usize) -> (f64, f64) {
     time_steps_with(scene, min_s, max_steps, |s| s.step())
 }
 
 /// [`time_steps`] with a given stepping function.
 fn time_steps_with(
-    scene: &mut corofem_io::HeapScene,
+    scene: &mut corofem::VecScene,
     min_s: f64,
     max_steps: usize,
     step: Stepper,
@@ -139,7 +139,7 @@ fn time_steps_with(
 }
 
 /// One step of a heap scene.
-type Stepper = fn(&mut corofem_io::HeapScene) -> Result<corofem::StepStats, corofem::StepError>;
+type Stepper = fn(&mut corofem::VecScene) -> Result<corofem::StepStats, corofem::StepError>;
 
 /// The 10 368-tet cube (`cube_13n_t6`'s grid), Qr, 5 CG iterations, dt 1 ms:
 /// the step with the baseline instruction set against the best the CPU
@@ -148,7 +148,7 @@ fn isa(o: &Opts, md: &mut String) -> Res<()> {
     let def = scenes::boxed("cube10k", [1.0, 1.0, 1.0], [12, 12, 12], 1.0e6);
     let min_s = if o.quick { 0.6 } else { 3.0 };
     let isa = corofem::InstructionSet::best().name();
-    let baseline = |mut s: corofem_io::HeapScene| {
+    let baseline = |mut s: corofem::VecScene| {
         s.set_instruction_set(Some(corofem::InstructionSet::Baseline))
             .map(|()| s)
     };
@@ -182,7 +182,7 @@ fn isa(o: &Opts, md: &mut String) -> Res<()> {
 }
 
 fn time_round(
-    scene: &mut corofem_io::HeapScene,
+    scene: &mut corofem::VecScene,
     min_s: f64,
     max_steps: usize,
     step: Stepper,
@@ -679,7 +679,7 @@ fn method_runs(
                     }
                 }
                 let u = || {
-                    (0..sc.node_count())
+                    (0..sc.node_count() as u32)
                         .map(|i| sc.displacement(i).unwrap_or([f32::NAN; 3]).map(f64::from))
                 };
                 e_s += traj.sq_err(s, u());

@@ -10,11 +10,11 @@
 //! host-tests/reference/.
 
 use super::Progress;
+use corofem::VecScene;
 use corofem::{Method, StaticSettings};
 use corofem_bench::args::ReportArgs as Opts;
 use corofem_bench::reference::{cross, dot, sub};
 use corofem_bench::scenes::{self, SceneDef};
-use corofem_io::HeapScene;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -64,8 +64,8 @@ fn mesh_file(file: &str, notes: &mut String) -> Res<Option<PathBuf>> {
 }
 
 /// Displacements (m) of every node of `scene`, widened to f64.
-fn displacements(scene: &HeapScene) -> Vec<[f64; 3]> {
-    (0..scene.node_count())
+fn displacements(scene: &VecScene) -> Vec<[f64; 3]> {
+    (0..scene.node_count() as u32)
         .map(|i| {
             scene
                 .displacement(i)
@@ -334,9 +334,9 @@ impl Rng {
 /// Momentum `Σ m v` (kg·m/s) and angular momentum `Σ (x − c) × m v`
 /// (kg·m²/s) about the fixed point `c` (m), and their scales `Σ m |v|` and
 /// `Σ m |x − c| |v|`, in f64.
-fn momenta(s: &HeapScene, c: [f64; 3]) -> ([f64; 3], [f64; 3], f64, f64) {
+fn momenta(s: &VecScene, c: [f64; 3]) -> ([f64; 3], [f64; 3], f64, f64) {
     let (mut p, mut l, mut ps, mut ls) = ([0.0f64; 3], [0.0f64; 3], 0.0, 0.0);
-    for i in 0..s.node_count() {
+    for i in 0..s.node_count() as u32 {
         let m = f64::from(s.mass(i).unwrap_or(f32::NAN));
         let x = sub(s.position(i).unwrap_or([f32::NAN; 3]).map(f64::from), c);
         let v = s.velocity(i).unwrap_or([f32::NAN; 3]).map(f64::from);
@@ -352,9 +352,9 @@ fn momenta(s: &HeapScene, c: [f64; 3]) -> ([f64; 3], [f64; 3], f64, f64) {
 }
 
 /// Centre of mass (m) of the current positions, in f64.
-fn centre_of_mass(s: &HeapScene) -> [f64; 3] {
+fn centre_of_mass(s: &VecScene) -> [f64; 3] {
     let (mut m, mut c) = (0.0f64, [0.0f64; 3]);
-    for i in 0..s.node_count() {
+    for i in 0..s.node_count() as u32 {
         let mi = f64::from(s.mass(i).unwrap_or(f32::NAN));
         let x = s.position(i).unwrap_or([f32::NAN; 3]);
         m += mi;
@@ -368,13 +368,13 @@ fn centre_of_mass(s: &HeapScene) -> [f64; 3] {
 /// Relative net force `|Σ f| / Σ |f|` and net torque `|Σ (x − c) × f| /
 /// Σ |x − c| |f|` of the internal elastic forces `f` of the current shape,
 /// about the current centre of mass `c`.
-fn net_force_torque(s: &mut HeapScene, f: &mut [[f32; 3]]) -> (f64, f64) {
+fn net_force_torque(s: &mut VecScene, f: &mut [[f32; 3]]) -> (f64, f64) {
     if s.elastic_forces(f).is_err() {
         return (f64::NAN, f64::NAN);
     }
     let c = centre_of_mass(s);
     let (mut sf, mut st, mut fs, mut ts) = ([0.0f64; 3], [0.0f64; 3], 0.0, 0.0);
-    for (i, fi) in f.iter().enumerate().take(s.node_count()) {
+    for (i, fi) in (0u32..).zip(f).take(s.node_count()) {
         let x = sub(s.position(i).unwrap_or([f32::NAN; 3]).map(f64::from), c);
         let fi = fi.map(f64::from);
         let t = cross(x, fi);

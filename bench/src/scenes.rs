@@ -1,8 +1,9 @@
 //! Benchmark scenes: the same mesh, material, constraints and loads for the
 //! f32 core and the f64 reference.
 
+use corofem::VecScene;
 use corofem::{BoxMesh, BuildOptions, Material, Method, Settings};
-use corofem_io::{heap_scene, read_mesh, to_core, HeapScene};
+use corofem_io::{read_mesh, to_core};
 use std::path::Path;
 
 use crate::reference::{Model, RefSettings};
@@ -142,8 +143,8 @@ impl SceneDef {
     }
 
     /// A built core scene with these settings' method, dt and CG budget.
-    pub fn core(&self, method: Method, dt: f32, cg_iterations: u32) -> HeapScene {
-        let mut scene = heap_scene(self.nodes.len(), self.tets.len());
+    pub fn core(&self, method: Method, dt: f32, cg_iterations: u32) -> VecScene {
+        let mut scene = VecScene::with_capacity(self.nodes.len(), self.tets.len());
         scene
             .build(
                 &self.nodes,

@@ -32,8 +32,8 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
 
+use corofem_core::VecScene;
 use corofem_core::{BoxMesh, BuildOptions, Material, Settings};
-use corofem_io::HeapScene;
 
 struct Args {
     scene: String,
@@ -118,7 +118,7 @@ fn parse_args() -> Result<Args, String> {
 /// A haptic scene: the built scene and how the tool moves.
 struct Haptic {
     name: String,
-    scene: HeapScene,
+    scene: VecScene,
     start: [f32; 3],
     /// Radius (m) of the tool's circle, in the plane of `axes`.
     radius: f32,
@@ -128,7 +128,7 @@ struct Haptic {
 fn liver(path: &str, cg: u32) -> Result<Haptic, String> {
     let mesh = corofem_io::read_mesh(std::path::Path::new(path)).map_err(|e| e.to_string())?;
     let (nodes, tets) = corofem_io::to_core(&mesh, 0.03);
-    let mut s = corofem_io::heap_scene(nodes.len(), tets.len());
+    let mut s = corofem_core::VecScene::with_capacity(nodes.len(), tets.len());
     let material = Material {
         young: 5.0e3,
         poisson: 0.45,
@@ -170,7 +170,7 @@ fn box10k(cg: u32) -> Result<Haptic, String> {
     let mut tets = vec![[0; 4]; mesh.tet_count()];
     mesh.generate(&mut nodes, &mut tets)
         .map_err(|e| e.to_string())?;
-    let mut s = corofem_io::heap_scene(nodes.len(), tets.len());
+    let mut s = corofem_core::VecScene::with_capacity(nodes.len(), tets.len());
     let material = Material {
         young: 1.0e4,
         poisson: 0.45,

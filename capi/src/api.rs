@@ -573,7 +573,7 @@ pub unsafe extern "C" fn corofem_set_force(
         let s = unsafe { built(scene)? };
         // SAFETY: as above.
         let f = unsafe { vec3(force, Some(s))? };
-        s.scene.set_force(node as usize, f)?;
+        s.scene.set_force(node, f)?;
         Ok(())
     })())
 }
@@ -854,10 +854,7 @@ pub unsafe extern "C" fn corofem_position(
         let s = unsafe { built(scene)? };
         // SAFETY: as above.
         let o = unsafe { out(out_position.cast::<[f32; 3]>(), Some(s))? };
-        *o = s
-            .scene
-            .position(node as usize)
-            .ok_or(Status::IndexOutOfRange)?;
+        *o = s.scene.position(node).ok_or(Status::IndexOutOfRange)?;
         Ok(())
     })())
 }

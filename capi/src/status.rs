@@ -110,17 +110,17 @@ impl From<Error> for Failure {
             | Error::TooManyGrabbed { .. }
             | Error::TooManyLoads { .. } => (Status::Capacity, None),
             Error::NoElements => (Status::NoElements, None),
-            Error::NonFiniteCoordinate { node } => (Status::NonFiniteCoordinate, Some(node)),
+            Error::NonFiniteCoordinate { node } => (Status::NonFiniteCoordinate, index(node)),
             Error::NodeIndexOutOfRange { element, .. } => (Status::IndexOutOfRange, Some(element)),
             Error::RepeatedNode { element, .. } => (Status::RepeatedNode, Some(element)),
             Error::DegenerateElement { element } => (Status::DegenerateElement, Some(element)),
             Error::InvertedElement { element } => (Status::InvertedElement, Some(element)),
-            Error::UnusedNode { node } => (Status::UnusedNode, Some(node)),
-            Error::NodeOutOfRange { node } => (Status::IndexOutOfRange, Some(node)),
+            Error::UnusedNode { node } => (Status::UnusedNode, index(node)),
+            Error::NodeOutOfRange { node } => (Status::IndexOutOfRange, index(node)),
             Error::ElementOutOfRange { element } => (Status::IndexOutOfRange, Some(element)),
             Error::InvalidParameter { .. } => (Status::InvalidArgument, None),
-            // The C API does not choose instruction sets.
-            Error::UnsupportedInstructionSet { .. } => (Status::InvalidArgument, None),
+            Error::MethodNotCompiled { .. } => (Status::Unsupported, None),
+            Error::UnsupportedInstructionSet { .. } => (Status::Unsupported, None),
             Error::NotBuilt => (Status::NotBuilt, None),
             // The static solve is not part of the C API.
             Error::Unconstrained => (Status::InvalidArgument, None),
@@ -128,6 +128,11 @@ impl From<Error> for Failure {
         };
         Self { status, at }
     }
+}
+
+/// A node index as the C API reports it (`size_t`).
+fn index(node: u32) -> Option<usize> {
+    usize::try_from(node).ok()
 }
 
 impl From<StepError> for Failure {

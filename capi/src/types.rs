@@ -19,21 +19,23 @@ pub enum MethodCode {
     QrRestB = 3,
 }
 
-/// Method names in code order; the core knows which are compiled in.
-const NAMES: [&str; 4] = ["qr", "polar", "linear", "qr-rest-b"];
-
-/// The core method for a C code.
+/// The core method for a C code (the codes are the order of
+/// `Method::VARIANTS`). A method that is not compiled in is the scene's to
+/// refuse (`Status::Unsupported`).
 pub fn method_from_code(code: u32) -> Result<Method, Status> {
-    let name = NAMES.get(code as usize).ok_or(Status::InvalidArgument)?;
-    Method::from_name(name).ok_or(Status::Unsupported)
+    let i = usize::try_from(code).map_err(|_| Status::InvalidArgument)?;
+    Method::VARIANTS
+        .get(i)
+        .copied()
+        .ok_or(Status::InvalidArgument)
 }
 
 /// The C code of a core method.
 #[must_use]
 pub fn method_code(m: Method) -> u32 {
-    NAMES
+    Method::VARIANTS
         .iter()
-        .position(|n| *n == m.name())
+        .position(|v| *v == m)
         .map_or(u32::MAX, |i| i as u32)
 }
 

@@ -118,7 +118,7 @@ fn target(start: [f32; 3], pull: [f32; 3], step: u32) -> [f32; 3] {
 
 /// Through the Rust API: (hash, tool force).
 fn run_rust(d: &Def, steps: u32) -> (u64, [f32; 3]) {
-    let mut s = corofem_io::heap_scene(d.nodes.len(), d.tets.len());
+    let mut s = corofem_core::VecScene::with_capacity(d.nodes.len(), d.tets.len());
     s.build(&d.nodes, &d.tets, &d.material, BuildOptions::default())
         .unwrap();
     s.set_settings(d.settings).unwrap();

@@ -4,8 +4,9 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
+use corofem::VecScene;
 use corofem::{BuildOptions, StepStats};
-use corofem_io::{HeapScene, HeapStorage, VtkSeries};
+use corofem_io::VtkSeries;
 
 use crate::error::{CliError, CliResult};
 use crate::mesh_input::{self, CoreMesh};
@@ -52,7 +53,7 @@ pub fn run(opts: &RunOptions) -> CliResult<()> {
         Some(dir) => {
             let tets: Vec<[usize; 4]> = (0..sim.scene.element_count())
                 .filter_map(|e| sim.scene.element_nodes(e))
-                .map(|t| t.map(usize::from))
+                .map(|t| t.map(|i| i as usize))
                 .collect();
             Some(VtkSeries::create(dir, &tets).map_err(|e| CliError(format!("--vtk: {e}")))?)
         }
@@ -159,7 +160,7 @@ impl Tool<'_> {
 /// A built scene and what the run needs alongside it.
 struct Sim<'a> {
     spec: &'a SceneSpec,
-    scene: HeapScene,
+    scene: VecScene,
     tool: Option<Tool<'a>>,
     /// Scratch for `elastic_forces`.
     forces: Vec<[f32; 3]>,
@@ -170,10 +171,7 @@ impl<'a> Sim<'a> {
     /// motion and the tool grab.
     fn build(spec: &'a SceneSpec, mesh: &CoreMesh) -> CliResult<Sim<'a>> {
         let file = &spec.file;
-        let mut scene = HeapScene::with_storage(HeapStorage::with_capacity(
-            mesh.nodes.len(),
-            mesh.tets.len(),
-        ));
+        let mut scene = VecScene::with_capacity(mesh.nodes.len(), mesh.tets.len());
         let options = BuildOptions {
             reorient: spec.mesh.reorient,
         };
@@ -211,7 +209,8 @@ impl<'a> Sim<'a> {
                     }
                 }
             }
-            for (i, f) in per_node.iter().enumerate() {
+            // `as u32`: one entry per node of a built scene (at most 65 536).
+            for (i, f) in (0u32..).zip(&per_node) {
                 if *f != [0.0; 3] {
                     scene
                         .set_force(i, f.map(|x| x as f32))
@@ -410,7 +409,7 @@ impl<'a> Sim<'a> {
         };
         let mut c = [0.0f64; 3];
         for &i in &tool.nodes {
-            let p = self.scene.position(i as usize).unwrap_or_default();
+            let p = self.scene.position(i).unwrap_or_default();
             for k in 0..3 {
                 c[k] += f64::from(p[k]);
             }
@@ -504,8 +503,9 @@ impl<'a> Sim<'a> {
 }
 
 /// `v = v₀ + ω × (x − c)` for every node, `c` the mass-weighted centroid.
-fn initial_velocities(scene: &HeapScene, v0: [f64; 3], omega: [f64; 3]) -> Vec<[f32; 3]> {
-    let n = scene.node_count();
+fn initial_velocities(scene: &VecScene, v0: [f64; 3], omega: [f64; 3]) -> Vec<[f32; 3]> {
+    // `as u32`: a scene has at most 65 536 nodes.
+    let n = scene.node_count() as u32;
     let (mut m_sum, mut c) = (0.0f64, [0.0f64; 3]);
     for i in 0..n {
         let m = f64::from(scene.mass(i).unwrap_or(0.0));

@@ -393,6 +393,38 @@ impl Ctx<'_> {
         ))
     }
 
+    /// The method called `name` in `[solver]`, if this build has it
+    /// (`compiled`: `Method::COMPILED`, a parameter for the tests).
+    fn method(&self, name: &str, compiled: &[Method]) -> CliResult<Method> {
+        let quoted = |methods: &mut dyn Iterator<Item = Method>| {
+            methods
+                .map(|m| format!("{:?}", m.name()))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        let method = Method::from_name(name).ok_or_else(|| {
+            self.bad(
+                "[solver]",
+                "method",
+                format!("{name:?}"),
+                format!("one of {}", quoted(&mut Method::VARIANTS.into_iter())),
+            )
+        })?;
+        if !compiled.contains(&method) {
+            return Err(self.bad(
+                "[solver]",
+                "method",
+                format!("{name:?}"),
+                format!(
+                    "a method this build has ({}): {name:?} needs corofem's feature `{}`",
+                    quoted(&mut compiled.iter().copied()),
+                    method.feature()
+                ),
+            ));
+        }
+        Ok(method)
+    }
+
     /// `file: [section]: message`.
     fn bad_table(&self, section: &str, message: impl Display) -> CliError {
         CliError(format!("{}: {section}: {message}", self.file))
@@ -675,18 +707,7 @@ impl Ctx<'_> {
         let d = Settings::default();
         let method = match &s.method {
             None => Method::DEFAULT,
-            Some(name) => Method::from_name(name).ok_or_else(|| {
-                let names: Vec<String> = Method::ALL
-                    .iter()
-                    .map(|m| format!("{:?}", m.name()))
-                    .collect();
-                self.bad(
-                    S,
-                    "method",
-                    format!("{name:?}"),
-                    format!("one of {}", names.join(", ")),
-                )
-            })?,
+            Some(name) => self.method(name, Method::COMPILED)?,
         };
         // The default as written in decimal (0.001), not its f32 value widened.
         let dt =
@@ -956,6 +977,24 @@ mod tests {
         assert_eq!(
             e,
             "t.toml: [material] poisson = 0.6: expected 0 <= poisson < 0.5"
+        );
+    }
+
+    #[test]
+    fn a_method_this_build_lacks_is_named_with_its_feature() {
+        let p = Ctx { file: "t.toml" };
+        assert_eq!(
+            p.method("polar", Method::COMPILED).ok(),
+            Some(Method::Polar)
+        );
+        let e = p
+            .method("polar", &[Method::Qr, Method::Linear])
+            .unwrap_err()
+            .0;
+        assert_eq!(
+            e,
+            "t.toml: [solver] method = \"polar\": expected a method this build has \
+             (\"qr\", \"linear\"): \"polar\" needs corofem's feature `polar`"
         );
     }
 

@@ -1,6 +1,7 @@
 //! Diagnostics: energies, momenta and the internal forces, for checking the
 //! physical laws. None of this runs in the step.
 
+use crate::error::Parameter;
 use crate::math::{add, axpy, cross, dot, scale, Vec3};
 use crate::pass;
 use crate::storage::Storage;
@@ -30,7 +31,8 @@ impl<S: Storage> Scene<S> {
     }
 
     fn positions_masses_velocities(&self) -> impl Iterator<Item = (Vec3, f32, Vec3)> + '_ {
-        (0..self.node_count())
+        // `as u32`: a scene has at most 65 536 nodes.
+        (0..self.node_count() as u32)
             .filter_map(|i| Some((self.position(i)?, self.mass(i)?, self.velocity(i)?)))
     }
 
@@ -57,7 +59,9 @@ impl<S: Storage> Scene<S> {
     pub fn elastic_forces(&mut self, out: &mut [Vec3]) -> Result<u32, crate::Error> {
         let v = self.view();
         if out.len() < v.nodes.len() {
-            return Err(crate::Error::InvalidParameter { name: "out" });
+            return Err(crate::Error::InvalidParameter {
+                parameter: Parameter::ForcesOut,
+            });
         }
         for f in out.iter_mut() {
             *f = [0.0; 3];
@@ -87,16 +91,22 @@ impl<S: Storage> Scene<S> {
     /// vector per node (their first `node_count()` entries are used).
     ///
     /// Uses the solver's scratch (`NodeWork`'s search direction and product),
-    /// never the state; a non-finite or too short `d`, or a too short `out`,
-    /// is an `InvalidParameter` error.
+    /// never the state; a non-finite or too short `d` is
+    /// [`Parameter::ProductInput`], a too short `out` [`Parameter::ProductOut`].
     pub fn stiffness_product(&mut self, d: &[Vec3], out: &mut [Vec3]) -> Result<(), crate::Error> {
         let v = self.view();
         let n = v.nodes.len();
-        let (Some(d), Some(out)) = (d.get(..n), out.get_mut(..n)) else {
-            return Err(crate::Error::InvalidParameter { name: "d or out" });
+        let bad = |parameter| Err(crate::Error::InvalidParameter { parameter });
+        let Some(d) = d.get(..n) else {
+            return bad(Parameter::ProductInput);
+        };
+        let Some(out) = out.get_mut(..n) else {
+            return bad(Parameter::ProductOut);
         };
         if !d.iter().all(|x| crate::math::is_finite3(*x)) {
-            return Err(crate::Error::InvalidParameter { name: "d" });
+            return Err(crate::Error::InvalidParameter {
+                parameter: Parameter::ProductInput,
+            });
         }
         for (w, x) in v.work.iter_mut().zip(d) {
             w.d = *x;

@@ -1,6 +1,11 @@
-//! Errors: small `Copy` values that say which element, node or parameter is wrong.
+//! Errors: small `Copy` values that say which element, node or parameter is
+//! wrong. Nodes are named by their `u32` index, as everywhere in the API
+//! ([`Scene`](crate::Scene)); elements by their position in the mesh's
+//! slice of tetrahedra (`usize`).
 
 use core::fmt;
+
+use crate::element::Method;
 
 /// Why building or configuring a scene failed. The scene is unchanged after
 /// every error.
@@ -40,21 +45,21 @@ pub enum Error {
     /// A node coordinate is NaN or infinite.
     NonFiniteCoordinate {
         /// The offending node.
-        node: usize,
+        node: u32,
     },
     /// An element refers to a node that does not exist.
     NodeIndexOutOfRange {
         /// The offending element.
         element: usize,
         /// The index it holds.
-        node: usize,
+        node: u32,
     },
     /// An element lists the same node twice.
     RepeatedNode {
         /// The offending element.
         element: usize,
         /// The repeated node.
-        node: usize,
+        node: u32,
     },
     /// An element has zero rest volume (flat, or two nodes at the same place),
     /// or a shape f32 cannot represent: a volume, mass or stiffness
@@ -72,22 +77,29 @@ pub enum Error {
     /// A node belongs to no element, so it would have no mass.
     UnusedNode {
         /// The offending node.
-        node: usize,
+        node: u32,
     },
     /// A node index given to a setter does not exist in the built scene.
     NodeOutOfRange {
         /// The index given.
-        node: usize,
+        node: u32,
     },
     /// An element index given to a setter does not exist in the built scene.
     ElementOutOfRange {
         /// The index given.
         element: usize,
     },
-    /// A parameter is outside its valid range or not finite.
+    /// A parameter is outside its valid range, not finite, or of the wrong
+    /// length.
     InvalidParameter {
-        /// The parameter's name, as in the settings struct.
-        name: &'static str,
+        /// Which one.
+        parameter: Parameter,
+    },
+    /// The element method is not compiled into this build: enable the
+    /// `corofem` feature [`Method::feature`].
+    MethodNotCompiled {
+        /// The method asked for.
+        method: Method,
     },
     /// The instruction set asked for is not supported by this CPU (or, in a
     /// build without the `std` feature, was not enabled at build time).
@@ -143,7 +155,13 @@ impl fmt::Display for Error {
             Error::UnusedNode { node } => write!(f, "node {node} belongs to no tetrahedron"),
             Error::NodeOutOfRange { node } => write!(f, "node {node} does not exist"),
             Error::ElementOutOfRange { element } => write!(f, "element {element} does not exist"),
-            Error::InvalidParameter { name } => write!(f, "parameter `{name}` is out of range"),
+            Error::InvalidParameter { parameter } => write!(f, "invalid {parameter}"),
+            Error::MethodNotCompiled { method } => write!(
+                f,
+                "element method `{}` is not compiled into this build (corofem feature `{}`)",
+                method.name(),
+                method.feature()
+            ),
             Error::UnsupportedInstructionSet { instruction_set } => write!(
                 f,
                 "instruction set `{}` is not supported here",
@@ -159,6 +177,111 @@ impl fmt::Display for Error {
 }
 
 impl core::error::Error for Error {}
+
+/// A parameter that [`Error::InvalidParameter`] refuses. Its `Display` says
+/// what a valid value is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Parameter {
+    /// Young's modulus (`Material::young`, `Scene::set_young`, ...).
+    Young,
+    /// Poisson's ratio (`Material::poisson`, `Scene::set_poisson`, ...).
+    Poisson,
+    /// `Material::density`.
+    Density,
+    /// `Settings::dt`.
+    Dt,
+    /// `Settings::cg_iterations`.
+    CgIterations,
+    /// `Settings::cg_tolerance`.
+    CgTolerance,
+    /// `Settings::rayleigh_mass`.
+    RayleighMass,
+    /// `Settings::rayleigh_stiffness`.
+    RayleighStiffness,
+    /// `Settings::gravity`.
+    Gravity,
+    /// The force of `Scene::set_force`.
+    Force,
+    /// The positions of `Scene::set_positions`.
+    Positions,
+    /// The displacements of `Scene::set_displacements`.
+    Displacements,
+    /// The velocities of `Scene::set_velocities`.
+    Velocities,
+    /// The node list of `Scene::grab`.
+    ToolNodes,
+    /// The spring stiffness of `Scene::grab`.
+    ToolStiffness,
+    /// The target of `Scene::set_tool_target`.
+    ToolTarget,
+    /// The plane of `Scene::set_ground`.
+    Ground,
+    /// `StaticSettings::cg_iterations`.
+    StaticCgIterations,
+    /// `StaticSettings::cg_tolerance`.
+    StaticCgTolerance,
+    /// `StaticSettings::tolerance`.
+    StaticTolerance,
+    /// `StaticSettings::update_tolerance`.
+    StaticUpdateTolerance,
+    /// The output slice of `Scene::elastic_forces`.
+    ForcesOut,
+    /// The displacements `d` of `Scene::stiffness_product`.
+    ProductInput,
+    /// The output slice of `Scene::stiffness_product`.
+    ProductOut,
+    /// `BoxMesh::cells`.
+    Cells,
+    /// `BoxMesh::size`.
+    Size,
+    /// `BoxMesh::tets_per_cell`.
+    TetsPerCell,
+}
+
+impl fmt::Display for Parameter {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Parameter::Young => {
+                "Young's modulus: it must be finite and ≥ 0 Pa, and small enough that \
+                 every element's λ/(36 V₀) and μ/(36 V₀) fit in f32"
+            }
+            Parameter::Poisson => {
+                "Poisson's ratio: it must be in [0, 0.5), and every element's \
+                 λ/(36 V₀) must fit in f32"
+            }
+            Parameter::Density => "density: it must be finite and > 0 kg/m³",
+            Parameter::Dt => "time step `dt`: it must be finite and > 0 s",
+            Parameter::CgIterations => "`cg_iterations`: it must be ≥ 1",
+            Parameter::CgTolerance => "`cg_tolerance`: it must be finite and ≥ 0",
+            Parameter::RayleighMass => "`rayleigh_mass`: it must be finite and ≥ 0 1/s",
+            Parameter::RayleighStiffness => "`rayleigh_stiffness`: it must be finite and ≥ 0 s",
+            Parameter::Gravity => "`gravity`: it must be finite (m/s²)",
+            Parameter::Force => "force: it must be finite (N)",
+            Parameter::Positions => {
+                "positions: one per node, each finite (m) and with a finite displacement"
+            }
+            Parameter::Displacements => {
+                "displacements: one per node, each finite (m) and with a finite position"
+            }
+            Parameter::Velocities => "velocities: one per node, each finite (m/s)",
+            Parameter::ToolNodes => "nodes to grab: at least one",
+            Parameter::ToolStiffness => "tool stiffness: it must be finite and ≥ 0 N/m",
+            Parameter::ToolTarget => "tool target: it must be finite (m)",
+            Parameter::Ground => "ground plane: it must be finite with a non-zero normal",
+            Parameter::StaticCgIterations => "static `cg_iterations`: it must be ≥ 1",
+            Parameter::StaticCgTolerance => "static `cg_tolerance`: it must be ≥ 0",
+            Parameter::StaticTolerance => "static `tolerance`: it must be ≥ 0",
+            Parameter::StaticUpdateTolerance => "static `update_tolerance`: it must be ≥ 0",
+            Parameter::ForcesOut => "output of `elastic_forces`: it needs one entry per node",
+            Parameter::ProductInput => "`d` of `stiffness_product`: one per node, each finite (m)",
+            Parameter::ProductOut => "output of `stiffness_product`: it needs one entry per node",
+            Parameter::Cells => "`cells`: each must be ≥ 1",
+            Parameter::Size => "`size`: each edge must be finite and > 0 m",
+            Parameter::TetsPerCell => "`tets_per_cell`: it must be 5 or 6",
+        })
+    }
+}
 
 /// Why a step was refused. The state is unchanged after every step error.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

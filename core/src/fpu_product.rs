@@ -13,7 +13,7 @@
 //!
 //! A multiply-add `x + a·b` (37 per element) is one `vmla` (the product and
 //! the sum each rounded, as in Rust: not fused), or with feature
-//! `fpu-product-vmul` a `vmul` into a scratch register and a `vadd`. On a
+//! `_fpu-product-vmul` a `vmul` into a scratch register and a `vadd`. On a
 //! Cortex-M4 `vmla` takes 3 cycles and the pair 2 (TRM, table 7-1): `vmla`
 //! gives the fewest instructions, the pair the fewest cycles. The compiler
 //! makes the same choice for the Rust code: `vmla` for a generic
@@ -43,15 +43,15 @@ use crate::storage::NodeWork;
 
 /// `d += a · b`, the product rounded and then the sum, with scratch register
 /// `t`: one `vmla`.
-#[cfg(not(feature = "fpu-product-vmul"))]
+#[cfg(not(feature = "_fpu-product-vmul"))]
 macro_rules! mac {
     ($d:literal, $a:literal, $b:literal, $t:literal) => {
         concat!("vmla.f32 ", $d, ", ", $a, ", ", $b)
     };
 }
 
-/// `d += a · b` as `t = a · b; d = d + t` (feature `fpu-product-vmul`).
-#[cfg(feature = "fpu-product-vmul")]
+/// `d += a · b` as `t = a · b; d = d + t` (feature `_fpu-product-vmul`).
+#[cfg(feature = "_fpu-product-vmul")]
 macro_rules! mac {
     ($d:literal, $a:literal, $b:literal, $t:literal) => {
         concat!(

@@ -10,6 +10,7 @@
 //! onto it and lose their inward normal velocity (a perfectly inelastic,
 //! frictionless contact).
 
+use crate::error::Parameter;
 use crate::math::{axpy, dot, is_finite3, normalize, Vec3};
 
 /// A ground plane: points with `normal · x ≥ offset` are outside it.
@@ -97,10 +98,9 @@ impl<S: crate::Storage> crate::Scene<S> {
     /// are pushed out over the next steps.
     pub fn set_ground(&mut self, plane: Option<Plane>) -> Result<(), crate::Error> {
         self.hdr.ground = match plane {
-            Some(p) => Some(
-                p.normalized()
-                    .ok_or(crate::Error::InvalidParameter { name: "ground" })?,
-            ),
+            Some(p) => Some(p.normalized().ok_or(crate::Error::InvalidParameter {
+                parameter: Parameter::Ground,
+            })?),
             None => None,
         };
         Ok(())

@@ -61,18 +61,27 @@
 //!
 //! ## Features
 //!
+//! Every feature is additive. Names that start with `_` tune or demonstrate
+//! and are not part of the stable interface.
+//!
 //! | feature | what |
 //! |---|---|
 //! | `qr` (default) | the paper's QR method |
-//! | `polar`, `linear`, `qr-rest-b` | the other element methods |
-//! | `ground`, `tool`, `loads`, `statics`, `diagnostics` | ground contact, haptic tool, constant nodal forces, static solve, energies and momenta |
+//! | `polar`, `linear` | the other element methods |
+//! | `qr-rest-b` | SOFA's QR method with `B` frozen at rest: a demonstration of ghost torques |
+//! | `ground`, `tool`, `loads`, `statics`, `diagnostics` | ground contact, haptic tool, constant nodal forces, static solve, energies and momenta (and [`StepStats::elastic_energy`]) |
+//! | `alloc` | [`VecStorage`] and [`VecScene`]: storage in `Vec`s, sized at run time (the solver never allocates) |
 //! | `full` | all of the above |
-//! | `libm` (default) / `micromath` | math backend (exactly one) |
+//! | `libm` (default) / `micromath` | math backend: correctly rounded / fast and approximate; `libm` wins when both are on, one is needed |
 //! | `fpu-sqrt` | square root with the FPU's `vsqrt.f32` on bare-metal Arm hard-float targets (Cortex-M4F/M7), bit-identical to `libm` |
 //! | `fpu-product` | the CG's stiffness product in FPU assembly (`vldm`/`vstm`) on the same targets, bit-identical to the Rust product |
-//! | `fpu-product-vmul` | `fpu-product` with `vmul` + `vadd` instead of `vmla`: more instructions, fewer cycles on a Cortex-M4 |
+//! | `_fpu-product-vmul` | tuning: `fpu-product` with `vmul` + `vadd` instead of `vmla`: more instructions, fewer cycles on a Cortex-M4 |
 //! | `std` | [`Scene::step`] detects AVX2 on x86_64 once per process and uses it when present ([`InstructionSet`]) |
 //! | `defmt` | `defmt::Format` on public types |
+//!
+//! Every [`Method`] exists in every build; a scene refuses one whose feature
+//! is off ([`Error::MethodNotCompiled`]), and [`Method::COMPILED`] lists the
+//! others.
 #![no_std]
 // No unsafe code, except the square root instruction (math.rs: SSE's
 // `sqrtss` intrinsic on x86, the FPU's `vsqrt.f32` behind `fpu-sqrt`), the
@@ -90,6 +99,8 @@
 // Cortex-M4F): the same code serves both, on purpose.
 #![allow(clippy::modulo_one)]
 
+#[cfg(feature = "alloc")]
+extern crate alloc;
 // `std` only to ask the CPU which instruction sets it has (feature `std`).
 #[cfg(any(feature = "std", test))]
 extern crate std;
@@ -130,19 +141,21 @@ pub use element::{element_blocks, ElementBlock, Method};
 /// run in vector lanes (x86, x86_64, AArch64, wasm32 with `simd128`), 1
 /// elsewhere (e.g. a Cortex-M4F).
 pub const ELEMENTS_PER_BLOCK: usize = lanes::LANES;
-pub use error::{Error, StepError};
+pub use error::{Error, Parameter, StepError};
 #[cfg(feature = "ground")]
 pub use ground::Plane;
 pub use material::Material;
 pub use math::Vec3;
 pub use mesh_gen::BoxMesh;
+#[cfg(feature = "alloc")]
+pub use scene::VecScene;
 pub use scene::{BuildOptions, Scene, StaticScene};
 pub use settings::{Settings, StepStats};
 #[cfg(feature = "statics")]
 pub use statics::{NewtonStats, StaticSettings};
-pub use storage::{
-    ArrayStorage, Node, NodeEntry, NodeWork, OwnedStorage, PartsMut, SliceStorage, Storage,
-};
+#[cfg(feature = "alloc")]
+pub use storage::VecStorage;
+pub use storage::{ArrayStorage, Node, NodeEntry, NodeWork, SliceStorage, Storage};
 
 /// The README's code examples, compiled and run as doctests (they use the tool).
 #[cfg(all(doctest, feature = "tool"))]

@@ -1,6 +1,6 @@
 //! Isotropic linear-elastic material: Young's modulus, Poisson ratio, density.
 
-use crate::error::Error;
+use crate::error::{Error, Parameter};
 use crate::math::Real;
 
 /// An isotropic material, entered as engineers measure it.
@@ -34,7 +34,9 @@ impl Material {
         validate_young(self.young)?;
         validate_poisson(self.poisson)?;
         if !(self.density > 0.0 && self.density.is_finite()) {
-            return Err(Error::InvalidParameter { name: "density" });
+            return Err(Error::InvalidParameter {
+                parameter: Parameter::Density,
+            });
         }
         Ok(())
     }
@@ -44,7 +46,9 @@ pub(crate) fn validate_young(young: f32) -> Result<(), Error> {
     if young >= 0.0 && young.is_finite() {
         Ok(())
     } else {
-        Err(Error::InvalidParameter { name: "young" })
+        Err(Error::InvalidParameter {
+            parameter: Parameter::Young,
+        })
     }
 }
 
@@ -52,7 +56,9 @@ pub(crate) fn validate_poisson(poisson: f32) -> Result<(), Error> {
     if (0.0..0.5).contains(&poisson) {
         Ok(())
     } else {
-        Err(Error::InvalidParameter { name: "poisson" })
+        Err(Error::InvalidParameter {
+            parameter: Parameter::Poisson,
+        })
     }
 }
 
@@ -107,7 +113,9 @@ mod tests {
         };
         assert_eq!(
             bad.validate(),
-            Err(Error::InvalidParameter { name: "poisson" })
+            Err(Error::InvalidParameter {
+                parameter: Parameter::Poisson
+            })
         );
         let bad = Material {
             young: -1.0,
@@ -115,7 +123,9 @@ mod tests {
         };
         assert_eq!(
             bad.validate(),
-            Err(Error::InvalidParameter { name: "young" })
+            Err(Error::InvalidParameter {
+                parameter: Parameter::Young
+            })
         );
         let bad = Material {
             density: 0.0,
@@ -123,7 +133,9 @@ mod tests {
         };
         assert_eq!(
             bad.validate(),
-            Err(Error::InvalidParameter { name: "density" })
+            Err(Error::InvalidParameter {
+                parameter: Parameter::Density
+            })
         );
         let bad = Material {
             young: f32::NAN,

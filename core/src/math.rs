@@ -4,11 +4,24 @@
 //! easy for the compiler to vectorise. Every function here is a fixed sequence
 //! of IEEE operations (no fused multiply-add), so results are bit-identical on
 //! every target.
+//!
+//! The backend's only function is the square root, chosen here and nowhere
+//! else, first match wins:
+//!
+//! 1. `fpu-sqrt` on a bare-metal Arm hard-float target: the FPU's `vsqrt.f32`;
+//! 2. `libm` on x86 with SSE: the `sqrtss` instruction;
+//! 3. `libm`: `libm::sqrtf`;
+//! 4. `micromath`: its approximation (~6% relative error).
+//!
+//! The first three are correctly rounded, so they give the same bits. `libm`
+//! wins over `micromath` when both are on: Cargo unites the features every
+//! crate of a build asks for, and a feature enabled elsewhere must never make
+//! the results less accurate without a word, so `micromath` applies only
+//! where nothing enables `libm` (a build that wants it turns off the default
+//! features everywhere). With neither, the crate does not compile.
 
-#[cfg(all(feature = "libm", feature = "micromath"))]
-compile_error!("corofem: enable exactly one math backend feature: `libm` or `micromath`, not both");
 #[cfg(not(any(feature = "libm", feature = "micromath")))]
-compile_error!("corofem: enable one math backend feature: `libm` (accurate, default) or `micromath` (fast, approximate)");
+compile_error!("corofem: enable a math backend feature: `libm` (accurate, default) or `micromath` (fast, approximate; `libm` wins when both are on)");
 
 /// A 3-vector (components in the unit of what it holds: m, m/s, N, ...).
 pub type Vec3 = [f32; 3];
@@ -58,7 +71,8 @@ pub(crate) fn sqrt(x: f32) -> f32 {
     unsafe { _mm_cvtss_f32(_mm_sqrt_ss(_mm_set_ss(x))) }
 }
 
-/// Square root through the selected backend (`micromath`: ~6% relative error).
+/// Square root through the selected backend (`micromath` without `libm`:
+/// ~6% relative error).
 #[cfg(all(
     feature = "micromath",
     not(feature = "libm"),
@@ -313,6 +327,20 @@ mod tests {
                 let acc = finite_probe(finite_probe(0.0, v), [2.0; 3]);
                 assert!(acc.is_nan(), "{bad} at {k}");
             }
+        }
+    }
+
+    /// `libm` wins over `micromath` when both are on: the square root is
+    /// correctly rounded (`micromath`'s is not, by up to ~6%).
+    #[cfg(feature = "libm")]
+    #[test]
+    fn libm_square_root_is_correctly_rounded() {
+        for x in [2.0f32, 3.0, 0.5, 1.0e-3, 12345.678] {
+            assert_eq!(sqrt(x), libm::sqrtf(x));
+            let r = f64::from(sqrt(x));
+            // Correctly rounded: within half an f32 ulp of the exact root.
+            let exact = f64::from(x).sqrt();
+            assert!((r - exact).abs() <= f64::from(f32::EPSILON) * exact * 0.5);
         }
     }
 

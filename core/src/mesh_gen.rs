@@ -1,7 +1,7 @@
 //! Generated meshes: a box split into tetrahedra, written into caller slices
 //! (no allocation), for tests, firmware and demos that have no mesh file.
 
-use crate::error::Error;
+use crate::error::{Error, Parameter};
 use crate::math::{det3, sub, Vec3};
 
 /// A box `[0, size.x] × [0, size.y] × [0, size.z]` of `cells` cubes, each
@@ -92,17 +92,21 @@ impl BoxMesh {
     ) -> Result<(usize, usize), Error> {
         let [cx, cy, cz] = self.cells;
         if cx == 0 || cy == 0 || cz == 0 {
-            return Err(Error::InvalidParameter { name: "cells" });
+            return Err(Error::InvalidParameter {
+                parameter: Parameter::Cells,
+            });
         }
         if !self.size.iter().all(|s| *s > 0.0 && s.is_finite()) {
-            return Err(Error::InvalidParameter { name: "size" });
+            return Err(Error::InvalidParameter {
+                parameter: Parameter::Size,
+            });
         }
         let split: &[[usize; 4]] = match self.tets_per_cell {
             5 => &FIVE_EVEN,
             6 => &SIX,
             _ => {
                 return Err(Error::InvalidParameter {
-                    name: "tets_per_cell",
+                    parameter: Parameter::TetsPerCell,
                 })
             }
         };

@@ -1,7 +1,7 @@
 //! The scene: a validated mesh, its material and state, and the public API.
 
 use crate::element::{block_and_lane, element_blocks, qr, Element, ElementBlock, Method};
-use crate::error::{Error, StepError};
+use crate::error::{Error, Parameter, StepError};
 use crate::lanes::LANES;
 use crate::material::{
     element_stiffness, lame, lame_per_young, validate_poisson, validate_young, Material,
@@ -26,13 +26,26 @@ pub struct BuildOptions {
 }
 
 /// Everything about a scene that is not per node or per element.
+///
+/// [`Header::EMPTY`], and with it an empty [`StaticScene`], is all zero
+/// bits, so that a `static` scene lands in `.bss` and costs no flash (an
+/// initial value with one non-zero byte puts the whole scene in `.data`,
+/// whose image is stored in flash as well: 27 kB more for the firmware
+/// example's 240 tetrahedra). `.ci/firmware.sh` checks it.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Header {
     pub(crate) n_nodes: usize,
     pub(crate) n_elems: usize,
     pub(crate) poisson: f32,
     pub(crate) density: f32,
+    /// The step settings when `settings_valid`; the step and the solvers
+    /// read them through a [`View`], which makes them valid.
     pub(crate) settings: Settings,
+    /// Whether `settings` holds the scene's settings. When not (an empty
+    /// header, where they are [`Settings::ZERO`]) the defaults apply: the
+    /// non-zero defaults are written on first use instead of being part of
+    /// the initial value.
+    pub(crate) settings_valid: bool,
     pub(crate) time: f64,
     pub(crate) inverted: u32,
     /// Some node is fixed (kept by `fix_nodes`/`unfix_all` so the step need
@@ -82,12 +95,23 @@ impl Header {
         lame_per_young(self.poisson)
     }
 
+    /// Makes the default settings the scene's own. Out of line: it runs at
+    /// most once per scene, and every caller of `Scene::view` (the step
+    /// among them) keeps only the test.
+    #[cold]
+    #[inline(never)]
+    fn write_default_settings(&mut self) {
+        self.settings = Settings::new();
+        self.settings_valid = true;
+    }
+
     const EMPTY: Self = Self {
         n_nodes: 0,
         n_elems: 0,
         poisson: 0.0,
         density: 0.0,
-        settings: Settings::new(),
+        settings: Settings::ZERO,
+        settings_valid: false,
         time: 0.0,
         inverted: 0,
         any_fixed: false,
@@ -104,8 +128,22 @@ impl Header {
 /// A soft body: tetrahedral mesh, material, state, constraints and loads.
 ///
 /// Generic over where its data lives: [`StaticScene`] keeps everything in
-/// arrays of fixed capacity (a `static` on a microcontroller), and
+/// arrays of fixed capacity (a `static` on a microcontroller), `VecScene`
+/// in `Vec`s sized at run time (feature `alloc`), and
 /// [`Scene::with_storage`] takes any other [`Storage`] (caller-owned slices).
+///
+/// # Node indices
+///
+/// A node is named by a `u32` everywhere: in the tetrahedra given to
+/// [`Scene::build`], in node lists ([`Scene::fix_nodes`], `Scene::grab`), in
+/// per-node getters and setters ([`Scene::position`], `Scene::set_force`),
+/// in [`Scene::element_nodes`] and in errors. `u32` because it is the width
+/// of mesh files and of the C API, and the same on every target (a `usize`
+/// is not), so an index read from a file reaches the scene unchanged and an
+/// out-of-range one is reported, not truncated. The elements keep `u16`
+/// indices inside (at most 65 536 nodes, [`Scene::node_capacity`]); that is a
+/// storage detail. Counts, and elements, which are positions in the
+/// caller's slice of tetrahedra, are `usize`.
 ///
 /// ```
 /// use corofem::{BuildOptions, Material, StaticScene};
@@ -154,6 +192,22 @@ impl<const N: usize, const B: usize, const G: usize, const L: usize> Default
     }
 }
 
+/// A scene in `Vec`s sized at run time (feature `alloc`), for host programs
+/// whose meshes are known only when they run: every node can be grabbed or
+/// loaded.
+#[cfg(feature = "alloc")]
+pub type VecScene = Scene<crate::storage::VecStorage>;
+
+#[cfg(feature = "alloc")]
+impl Scene<crate::storage::VecStorage> {
+    /// An empty scene with room for exactly `nodes` nodes and `elements`
+    /// tetrahedra: [`VecStorage::with_capacity`](crate::VecStorage::with_capacity).
+    #[must_use]
+    pub fn with_capacity(nodes: usize, elements: usize) -> Self {
+        Self::with_storage(crate::storage::VecStorage::with_capacity(nodes, elements))
+    }
+}
+
 /// Mutable access to the used part of every slot array.
 pub(crate) struct View<'a> {
     pub(crate) hdr: &'a mut Header,
@@ -171,8 +225,8 @@ pub(crate) struct View<'a> {
     pub(crate) loads: &'a mut [crate::storage::NodeEntry],
 }
 
-/// Largest node count that `u16` indices address.
-const MAX_U16_NODES: usize = 1 << 16;
+/// Most nodes a scene holds: what the elements' `u16` node indices address.
+pub(crate) const MAX_NODES: usize = 1 << 16;
 
 impl<S: Storage> Scene<S> {
     /// An empty scene over `store`.
@@ -186,7 +240,7 @@ impl<S: Storage> Scene<S> {
     /// Node capacity of the storage (at most 65 536 are usable).
     #[must_use]
     pub fn node_capacity(&self) -> usize {
-        self.store.parts().0.len().min(MAX_U16_NODES)
+        self.store.parts().0.len().min(MAX_NODES)
     }
 
     /// Element capacity of the storage (blocks × elements per block).
@@ -197,6 +251,9 @@ impl<S: Storage> Scene<S> {
 
     #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
     pub(crate) fn view(&mut self) -> View<'_> {
+        if !self.hdr.settings_valid {
+            self.hdr.write_default_settings();
+        }
         let (n, e) = (self.hdr.n_nodes, self.hdr.n_elems);
         #[cfg(feature = "tool")]
         let n_grabs = self.hdr.tool.count as usize;
@@ -214,6 +271,11 @@ impl<S: Storage> Scene<S> {
             #[cfg(feature = "loads")]
             loads: p.loads.get_mut(..n_loads).unwrap_or_default(),
         }
+    }
+
+    /// Node `i`, if the scene has it.
+    fn node(&self, i: u32) -> Option<&Node> {
+        self.nodes().get(i as usize)
     }
 
     fn nodes(&self) -> &[Node] {
@@ -266,8 +328,9 @@ impl<S: Storage> Scene<S> {
         if tets.is_empty() {
             return Err(Error::NoElements);
         }
+        // `as u32`: below the node capacity (at most `MAX_NODES`), checked above.
         if let Some(node) = positions.iter().position(|p| !is_finite3(*p)) {
-            return Err(Error::NonFiniteCoordinate { node });
+            return Err(Error::NonFiniteCoordinate { node: node as u32 });
         }
         let per_young = lame_per_young(material.poisson);
         let PartsMut {
@@ -322,7 +385,7 @@ impl<S: Storage> Scene<S> {
             .take(positions.len())
             .position(|w| w.inv_p == 0.0)
         {
-            return Err(Error::UnusedNode { node });
+            return Err(Error::UnusedNode { node: node as u32 });
         }
         // Pass 2: write.
         for (slot, p) in nodes.iter_mut().zip(positions) {
@@ -392,10 +455,15 @@ impl<S: Storage> Scene<S> {
         self.hdr.n_elems
     }
 
-    /// The step settings.
+    /// The step settings ([`Settings::default`] until set).
     #[must_use]
     pub fn settings(&self) -> &Settings {
-        &self.hdr.settings
+        const DEFAULTS: Settings = Settings::new();
+        if self.hdr.settings_valid {
+            &self.hdr.settings
+        } else {
+            &DEFAULTS
+        }
     }
 
     /// Replaces the step settings after validating them. Switching to the
@@ -403,12 +471,13 @@ impl<S: Storage> Scene<S> {
     pub fn set_settings(&mut self, settings: Settings) -> Result<(), Error> {
         settings.validate()?;
         #[cfg(feature = "polar")]
-        if settings.method == Method::Polar && self.hdr.settings.method != Method::Polar {
+        if settings.method == Method::Polar && self.settings().method != Method::Polar {
             for block in self.view().elems.iter_mut() {
                 block.rot = ElementBlock::EMPTY.rot;
             }
         }
         self.hdr.settings = settings;
+        self.hdr.settings_valid = true;
         Ok(())
     }
 
@@ -416,7 +485,7 @@ impl<S: Storage> Scene<S> {
     pub fn set_method(&mut self, method: Method) -> Result<(), Error> {
         self.set_settings(Settings {
             method,
-            ..self.hdr.settings
+            ..*self.settings()
         })
     }
 
@@ -428,38 +497,38 @@ impl<S: Storage> Scene<S> {
 
     /// Current position of node `i` (m).
     #[must_use]
-    pub fn position(&self, i: usize) -> Option<Vec3> {
-        self.nodes().get(i).map(Node::position)
+    pub fn position(&self, i: u32) -> Option<Vec3> {
+        self.node(i).map(Node::position)
     }
 
     /// Rest position of node `i` (m).
     #[must_use]
-    pub fn rest_position(&self, i: usize) -> Option<Vec3> {
-        self.nodes().get(i).map(|n| n.x0)
+    pub fn rest_position(&self, i: u32) -> Option<Vec3> {
+        self.node(i).map(|n| n.x0)
     }
 
     /// Displacement of node `i` from rest (m).
     #[must_use]
-    pub fn displacement(&self, i: usize) -> Option<Vec3> {
-        self.nodes().get(i).map(|n| n.u)
+    pub fn displacement(&self, i: u32) -> Option<Vec3> {
+        self.node(i).map(|n| n.u)
     }
 
     /// Velocity of node `i` (m/s).
     #[must_use]
-    pub fn velocity(&self, i: usize) -> Option<Vec3> {
-        self.nodes().get(i).map(|n| n.v)
+    pub fn velocity(&self, i: u32) -> Option<Vec3> {
+        self.node(i).map(|n| n.v)
     }
 
     /// Lumped mass of node `i` (kg).
     #[must_use]
-    pub fn mass(&self, i: usize) -> Option<f32> {
-        self.nodes().get(i).map(|n| n.mass)
+    pub fn mass(&self, i: u32) -> Option<f32> {
+        self.node(i).map(|n| n.mass)
     }
 
     /// Whether node `i` is fixed.
     #[must_use]
-    pub fn is_fixed(&self, i: usize) -> bool {
-        self.nodes().get(i).is_some_and(|n| n.flags & FIXED != 0)
+    pub fn is_fixed(&self, i: u32) -> bool {
+        self.node(i).is_some_and(|n| n.flags & FIXED != 0)
     }
 
     /// Current positions of all nodes, in order (m).
@@ -474,8 +543,8 @@ impl<S: Storage> Scene<S> {
 
     /// Node indices of element `e` (as stored: re-oriented if asked).
     #[must_use]
-    pub fn element_nodes(&self, e: usize) -> Option<[u16; 4]> {
-        self.element(e).map(|el| el.nodes)
+    pub fn element_nodes(&self, e: usize) -> Option<[u32; 4]> {
+        self.element(e).map(|el| el.nodes.map(u32::from))
     }
 
     /// Young's modulus of element `e` (Pa). An element keeps `E / (36 V₀)`,
@@ -510,7 +579,9 @@ impl<S: Storage> Scene<S> {
             .ok_or(Error::ElementOutOfRange { element: e })?;
         let stiffness = element_stiffness(young, el.six_v0());
         if !lame_finite(stiffness, per_young) {
-            return Err(Error::InvalidParameter { name: "young" });
+            return Err(Error::InvalidParameter {
+                parameter: Parameter::Young,
+            });
         }
         let (b, j) = block_and_lane(e, self.hdr.n_elems);
         if let Some(block) = self.view().elems.get_mut(b) {
@@ -525,7 +596,9 @@ impl<S: Storage> Scene<S> {
     pub fn set_young_all(&mut self, young: f32) -> Result<(), Error> {
         validate_young(young)?;
         if !self.lame_fits(Some(young), self.hdr.poisson) {
-            return Err(Error::InvalidParameter { name: "young" });
+            return Err(Error::InvalidParameter {
+                parameter: Parameter::Young,
+            });
         }
         self.write_young_all(young);
         Ok(())
@@ -548,7 +621,9 @@ impl<S: Storage> Scene<S> {
     pub fn set_poisson(&mut self, poisson: f32) -> Result<(), Error> {
         validate_poisson(poisson)?;
         if !self.lame_fits(None, poisson) {
-            return Err(Error::InvalidParameter { name: "poisson" });
+            return Err(Error::InvalidParameter {
+                parameter: Parameter::Poisson,
+            });
         }
         self.hdr.poisson = poisson;
         Ok(())
@@ -562,7 +637,9 @@ impl<S: Storage> Scene<S> {
         validate_young(young)?;
         validate_poisson(poisson)?;
         if !self.lame_fits(Some(young), poisson) {
-            return Err(Error::InvalidParameter { name: "young" });
+            return Err(Error::InvalidParameter {
+                parameter: Parameter::Young,
+            });
         }
         self.hdr.poisson = poisson;
         self.write_young_all(young);
@@ -609,10 +686,12 @@ impl<S: Storage> Scene<S> {
     /// range, a non-finite force, or a new loaded node when every load slot
     /// is taken ([`Error::TooManyLoads`]).
     #[cfg(feature = "loads")]
-    pub fn set_force(&mut self, i: usize, force: Vec3) -> Result<(), Error> {
+    pub fn set_force(&mut self, i: u32, force: Vec3) -> Result<(), Error> {
         use crate::storage::LOADED;
         if !is_finite3(force) {
-            return Err(Error::InvalidParameter { name: "force" });
+            return Err(Error::InvalidParameter {
+                parameter: Parameter::Force,
+            });
         }
         let n_loads = self.hdr.n_loads;
         let n_nodes = self.hdr.n_nodes;
@@ -620,11 +699,11 @@ impl<S: Storage> Scene<S> {
         let node = p
             .nodes
             .get_mut(..n_nodes)
-            .and_then(|n| n.get_mut(i))
+            .and_then(|n| n.get_mut(i as usize))
             .ok_or(Error::NodeOutOfRange { node: i })?;
         // The list is in node order: entry `at` is node i's, or where it goes.
         let used = p.loads.get_mut(..n_loads).unwrap_or_default();
-        let at = used.partition_point(|e| (e.node as usize) < i);
+        let at = used.partition_point(|e| e.node < i);
         let remove = force == [0.0; 3];
         if node.flags & LOADED != 0 {
             if remove {
@@ -643,7 +722,7 @@ impl<S: Storage> Scene<S> {
             tail.rotate_right(1);
             if let Some(e) = tail.first_mut() {
                 *e = crate::storage::NodeEntry {
-                    node: i as u32,
+                    node: i,
                     value: force,
                 };
             }
@@ -667,7 +746,7 @@ impl<S: Storage> Scene<S> {
     /// [`Error::InvalidParameter`] and leaves the scene unchanged.
     pub fn set_positions(&mut self, positions: &[Vec3]) -> Result<(), Error> {
         let v = self.view();
-        check_field(positions, v.nodes, "positions", |x0, p| sub(p, x0))?;
+        check_field(positions, v.nodes, Parameter::Positions, |x0, p| sub(p, x0))?;
         for (n, p) in v.nodes.iter_mut().zip(positions) {
             n.u = sub(*p, n.x0);
         }
@@ -679,7 +758,7 @@ impl<S: Storage> Scene<S> {
     /// leaves the scene unchanged.
     pub fn set_displacements(&mut self, displacements: &[Vec3]) -> Result<(), Error> {
         let v = self.view();
-        check_field(displacements, v.nodes, "displacements", add)?;
+        check_field(displacements, v.nodes, Parameter::Displacements, add)?;
         for (n, u) in v.nodes.iter_mut().zip(displacements) {
             n.u = *u;
         }
@@ -689,7 +768,7 @@ impl<S: Storage> Scene<S> {
     /// Sets all velocities (m/s). Fixed nodes keep zero velocity.
     pub fn set_velocities(&mut self, velocities: &[Vec3]) -> Result<(), Error> {
         let v = self.view();
-        check_field(velocities, v.nodes, "velocities", |_, vel| vel)?;
+        check_field(velocities, v.nodes, Parameter::Velocities, |_, vel| vel)?;
         for (n, vel) in v.nodes.iter_mut().zip(velocities) {
             n.v = if n.flags & FIXED != 0 { [0.0; 3] } else { *vel };
         }
@@ -775,16 +854,16 @@ fn oriented(
 ) -> Result<[u32; 4], Error> {
     let n = positions.len();
     for (k, &i) in tet.iter().enumerate() {
-        if i as usize >= n || i as usize >= MAX_U16_NODES {
+        if i as usize >= n || i as usize >= MAX_NODES {
             return Err(Error::NodeIndexOutOfRange {
                 element: e,
-                node: i as usize,
+                node: i,
             });
         }
         if tet[..k].contains(&i) {
             return Err(Error::RepeatedNode {
                 element: e,
-                node: i as usize,
+                node: i,
             });
         }
     }
@@ -852,7 +931,7 @@ fn rest_frame(positions: &[Vec3], t: &[u32; 4]) -> (qr::Frame, f32) {
 
 fn check_nodes(nodes: &[u32], n: usize) -> Result<(), Error> {
     match nodes.iter().find(|&&i| i as usize >= n) {
-        Some(&i) => Err(Error::NodeOutOfRange { node: i as usize }),
+        Some(&i) => Err(Error::NodeOutOfRange { node: i }),
         None => Ok(()),
     }
 }
@@ -862,12 +941,12 @@ fn check_nodes(nodes: &[u32], n: usize) -> Result<(), Error> {
 fn check_field(
     values: &[Vec3],
     nodes: &[Node],
-    name: &'static str,
+    parameter: Parameter,
     implied: impl Fn(Vec3, Vec3) -> Vec3,
 ) -> Result<(), Error> {
     let finite = |(n, v): (&Node, &Vec3)| is_finite3(*v) && is_finite3(implied(n.x0, *v));
     if values.len() != nodes.len() || !nodes.iter().zip(values).all(finite) {
-        return Err(Error::InvalidParameter { name });
+        return Err(Error::InvalidParameter { parameter });
     }
     Ok(())
 }
@@ -876,4 +955,116 @@ fn check_field(
 fn lame_finite(stiffness: f32, per_young: [f32; 2]) -> bool {
     let [l, m] = lame(stiffness, per_young);
     l.is_finite() && m.is_finite()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::BoxMesh;
+
+    /// A 2×2×2-cell cube (27 nodes, 48 tetrahedra) held at `x = 0`.
+    type Cube = StaticScene<27, { element_blocks(48) }>;
+
+    fn cube() -> Cube {
+        let mesh = BoxMesh {
+            size: [0.1; 3],
+            cells: [2; 3],
+            tets_per_cell: 6,
+        };
+        let mut nodes = [[0.0f32; 3]; 27];
+        let mut tets = [[0u32; 4]; 48];
+        let (n, t) = mesh.generate(&mut nodes, &mut tets).unwrap();
+        let mut scene = Cube::new();
+        scene
+            .build(
+                &nodes[..n],
+                &tets[..t],
+                &Material::DEFAULT,
+                BuildOptions::default(),
+            )
+            .unwrap();
+        let held: [u32; 9] = core::array::from_fn(|k| 3 * k as u32);
+        scene.fix_nodes(&held).unwrap();
+        scene
+    }
+
+    /// An empty scene's header is all zero bits, field by field (what puts
+    /// a `static` scene in `.bss`; `.ci/firmware.sh` checks the section of
+    /// a real one), and reports the default settings.
+    #[test]
+    fn an_empty_scene_is_zero_bits_and_has_the_default_settings() {
+        let h = Cube::new().hdr;
+        let s = h.settings;
+        let floats = [h.poisson, h.density, s.dt, s.cg_tolerance]
+            .into_iter()
+            .chain([s.rayleigh_mass, s.rayleigh_stiffness])
+            .chain(s.gravity);
+        assert!(floats.map(f32::to_bits).all(|b| b == 0));
+        assert_eq!(
+            (h.n_nodes, h.n_elems, h.inverted, h.time.to_bits()),
+            (0, 0, 0, 0)
+        );
+        assert_eq!((s.method as u8, s.cg_iterations), (0, 0));
+        assert!(!s.warm_start && !h.settings_valid && !h.any_fixed);
+        #[cfg(feature = "ground")]
+        assert!(h.ground.is_none());
+        #[cfg(feature = "tool")]
+        {
+            let t = h.tool;
+            assert_eq!((t.k_node.to_bits(), t.count), (0, 0));
+            assert!(t.target.iter().all(|x| x.to_bits() == 0));
+        }
+        #[cfg(feature = "loads")]
+        assert_eq!(h.n_loads, 0);
+        assert_eq!(*Cube::new().settings(), Settings::default());
+    }
+
+    /// A scene whose settings were never set steps with the defaults: the
+    /// bits of one given them explicitly.
+    #[test]
+    fn unset_settings_step_as_the_defaults() {
+        let mut unset = cube();
+        let mut given = cube();
+        given.set_settings(Settings::default()).unwrap();
+        for _ in 0..3 {
+            let (a, b) = (unset.step().unwrap(), given.step().unwrap());
+            assert_eq!(a.cg_iterations, b.cg_iterations);
+            assert_eq!(a.cg_residual.to_bits(), b.cg_residual.to_bits());
+        }
+        assert_eq!(unset.state_hash(), given.state_hash());
+        assert_eq!(unset.time(), 3.0 * f64::from(Settings::default().dt));
+        assert_eq!(unset.settings(), given.settings());
+    }
+
+    /// Every method can be asked for in every build; one whose feature is
+    /// off is refused by each setter that takes a method, and nothing
+    /// changes (CI runs the core's unit tests with `qr` alone, where three
+    /// methods are missing).
+    #[test]
+    fn a_method_not_compiled_in_is_refused_and_changes_nothing() {
+        let mut scene = cube();
+        let mut twin = cube();
+        scene.step().unwrap();
+        twin.step().unwrap();
+        let settings = *scene.settings();
+        for method in Method::VARIANTS {
+            let with = Settings { method, ..settings };
+            let results = [scene.set_settings(with), scene.set_method(method)];
+            if method.is_compiled() {
+                assert_eq!(results, [Ok(()), Ok(())], "{method:?}");
+                assert_eq!(scene.settings().method, method);
+                scene.set_settings(settings).unwrap();
+            } else {
+                let refused = Err(Error::MethodNotCompiled { method });
+                assert_eq!(results, [refused, refused], "{method:?}");
+                assert_eq!(with.validate(), refused);
+            }
+            assert_eq!(*scene.settings(), settings, "{method:?}");
+            assert_eq!(scene.state_hash(), twin.state_hash(), "{method:?}");
+        }
+        // The refusals left nothing behind that the next step sees.
+        scene.step().unwrap();
+        twin.step().unwrap();
+        assert_eq!(scene.state_hash(), twin.state_hash());
+    }
 }

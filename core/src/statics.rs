@@ -20,7 +20,7 @@ use crate::storage::GRABBED;
 #[cfg(feature = "loads")]
 use crate::storage::LOADED;
 use crate::storage::{NodeWork, Storage, FIXED};
-use crate::{Error, Scene};
+use crate::{Error, Parameter, Scene};
 
 /// Settings of a static solve.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -88,12 +88,17 @@ impl<S: Storage> Scene<S> {
         cfg: &StaticSettings,
         mut on_iteration: impl FnMut(&NewtonStats),
     ) -> Result<NewtonStats, Error> {
-        if cfg.cg_iterations == 0
-            || !(cfg.tolerance >= 0.0)
-            || !(cfg.cg_tolerance >= 0.0)
-            || !(cfg.update_tolerance >= 0.0)
-        {
-            return Err(Error::InvalidParameter { name: "static" });
+        let checks = [
+            (cfg.cg_iterations > 0, Parameter::StaticCgIterations),
+            (cfg.cg_tolerance >= 0.0, Parameter::StaticCgTolerance),
+            (cfg.tolerance >= 0.0, Parameter::StaticTolerance),
+            (
+                cfg.update_tolerance >= 0.0,
+                Parameter::StaticUpdateTolerance,
+            ),
+        ];
+        if let Some(&(_, parameter)) = checks.iter().find(|(ok, _)| !ok) {
+            return Err(Error::InvalidParameter { parameter });
         }
         let v = self.view();
         if v.elems.is_empty() {

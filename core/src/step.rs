@@ -308,8 +308,11 @@ fn step_with<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
         inverted: totals.inverted,
         contacts: held,
         tool_force,
-        #[cfg(feature = "diagnostics")]
-        elastic_energy: totals.energy,
+        elastic_energy: if cfg!(feature = "diagnostics") {
+            totals.energy
+        } else {
+            f32::NAN
+        },
     })
 }
 

@@ -1,9 +1,14 @@
 //! Where a scene's data lives. The type that owns storage knows the capacity
-//! (`ArrayStorage<N, B, G, L>`, usable in a `static`); everything else works on
-//! slices, so the solver is not compiled once per capacity. Elements are
-//! stored in [`ElementBlock`]s of [`ELEMENTS_PER_BLOCK`](crate::ELEMENTS_PER_BLOCK)
-//! elements each; [`element_blocks`](crate::element_blocks) gives how many a
-//! mesh needs.
+//! (`ArrayStorage<N, B, G, L>`, usable in a `static`; `VecStorage`, sized at
+//! run time); everything else works on slices, so the solver is not compiled
+//! once per capacity. Elements are stored in [`ElementBlock`]s of
+//! [`ELEMENTS_PER_BLOCK`](crate::ELEMENTS_PER_BLOCK) elements each;
+//! [`element_blocks`](crate::element_blocks) gives how many a mesh needs.
+//!
+//! [`Storage`] is sealed: the scene relies on what its implementations
+//! lend (node and work slices of one length), and the slot types
+//! ([`Node`], [`NodeWork`], [`ElementBlock`], [`NodeEntry`]) are opaque. A
+//! caller names them only to provide memory ([`SliceStorage`]).
 
 use crate::element::ElementBlock;
 use crate::math::Vec3;
@@ -29,9 +34,10 @@ pub(crate) const CONTACT: u8 = 8;
 #[cfg(feature = "tool")]
 pub(crate) const LISTED: u8 = 32;
 
-/// Per-node state (41 bytes of data, 44 with padding). What only some nodes
-/// carry (a grab offset, a constant load) lives in [`NodeEntry`] lists
-/// sized per scene.
+/// A node slot (41 bytes of data, 44 with padding): opaque, named only to
+/// provide memory (`[Node::EMPTY; N]` for a [`SliceStorage`]). What only
+/// some nodes carry (a grab offset, a constant load) lives in [`NodeEntry`]
+/// lists sized per scene.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Node {
     /// Rest position (m).
@@ -72,8 +78,9 @@ impl Default for Node {
     }
 }
 
-/// Per-node scratch of the linear solver (52 bytes). Only `x` (the last
-/// velocity change, the warm start) carries from one step to the next.
+/// A node's slot of linear-solver scratch (52 bytes): opaque, named only to
+/// provide memory. Only the last velocity change (the warm start) carries
+/// from one step to the next.
 // `repr(C)`: `q` right after `d`, as the assembly product (`fpu_product`)
 // reads them.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -109,7 +116,8 @@ impl Default for NodeWork {
     }
 }
 
-/// A vector that only some nodes carry (16 bytes): the tool's grab offset
+/// A slot for a vector that only some nodes carry (16 bytes; opaque, named
+/// only to provide memory): the tool's grab offset
 /// (m, from the grabbed nodes' centroid) or a constant external force (N).
 /// A scene keeps each kind in its own list, in node order, one entry per node
 /// whose flag says it has one; the lists' lengths are capacities chosen per
@@ -171,38 +179,59 @@ impl<'a> Entries<'a> {
     }
 }
 
-/// Every slot of a storage, mutable: what [`Storage::parts_mut`] lends.
-#[derive(Debug)]
-pub struct PartsMut<'a> {
-    /// Node slots.
-    pub nodes: &'a mut [Node],
-    /// Solver scratch, one per node slot (the shorter of the two sets the
-    /// node capacity).
-    pub work: &'a mut [NodeWork],
-    /// Element blocks.
-    pub elems: &'a mut [ElementBlock],
-    /// Slots for the nodes the tool holds (feature `tool`; may be empty:
-    /// then nothing can be grabbed).
-    pub grabs: &'a mut [NodeEntry],
-    /// Slots for constant external forces (feature `loads`; may be empty:
-    /// then no force can be set).
-    pub loads: &'a mut [NodeEntry],
+/// The sealed part of [`Storage`]: what the scene borrows from a storage.
+/// Public in a private module, so that no other crate can name it, call it
+/// or implement it.
+pub(crate) mod sealed {
+    use super::{ElementBlock, Node, NodeEntry, NodeWork};
+
+    /// Every slot of a storage, mutable: what [`Sealed::parts_mut`] lends.
+    #[derive(Debug)]
+    pub struct PartsMut<'a> {
+        /// Node slots.
+        pub(crate) nodes: &'a mut [Node],
+        /// Solver scratch, one per node slot (the same length as `nodes`).
+        pub(crate) work: &'a mut [NodeWork],
+        /// Element blocks.
+        pub(crate) elems: &'a mut [ElementBlock],
+        /// Slots for the nodes the tool holds (feature `tool`; may be empty:
+        /// then nothing can be grabbed).
+        // Every storage has the slots; only the tool reads them.
+        #[cfg_attr(not(feature = "tool"), allow(dead_code))]
+        pub(crate) grabs: &'a mut [NodeEntry],
+        /// Slots for constant external forces (feature `loads`; may be
+        /// empty: then no force can be set).
+        // Every storage has the slots; only the loads read them.
+        #[cfg_attr(not(feature = "loads"), allow(dead_code))]
+        pub(crate) loads: &'a mut [NodeEntry],
+    }
+
+    /// Access to a storage's slots.
+    pub trait Sealed {
+        /// Node and element-block slots.
+        fn parts(&self) -> (&[Node], &[ElementBlock]);
+        /// All slots, mutable.
+        fn parts_mut(&mut self) -> PartsMut<'_>;
+    }
 }
 
+pub(crate) use sealed::PartsMut;
+
 /// Storage for a scene: the node, solver-scratch, element-block, grab and
-/// load slots. The capacity is the length of the slices (times
+/// load slots. The capacity is the number of slots (times
 /// [`ELEMENTS_PER_BLOCK`](crate::ELEMENTS_PER_BLOCK) for elements).
-pub trait Storage {
-    /// Node and element-block slots.
-    fn parts(&self) -> (&[Node], &[ElementBlock]);
-    /// All slots, mutable.
-    fn parts_mut(&mut self) -> PartsMut<'_>;
-}
+///
+/// Sealed: implemented by [`ArrayStorage`] (fixed capacity, `const`),
+/// [`SliceStorage`] (caller-owned slices), `VecStorage` (feature `alloc`)
+/// and `&mut` of any storage.
+pub trait Storage: sealed::Sealed {}
+
+impl<S: sealed::Sealed + ?Sized> Storage for S {}
 
 /// Borrowed storage: lets the storage live apart from the scene, e.g. an
 /// `ArrayStorage` in a zero-initialised `static` (`.bss`) while the scene
 /// header stays on the stack.
-impl<S: Storage + ?Sized> Storage for &mut S {
+impl<S: sealed::Sealed + ?Sized> sealed::Sealed for &mut S {
     fn parts(&self) -> (&[Node], &[ElementBlock]) {
         (**self).parts()
     }
@@ -248,7 +277,7 @@ impl<const N: usize, const B: usize, const G: usize, const L: usize> Default
     }
 }
 
-impl<const N: usize, const B: usize, const G: usize, const L: usize> Storage
+impl<const N: usize, const B: usize, const G: usize, const L: usize> sealed::Sealed
     for ArrayStorage<N, B, G, L>
 {
     fn parts(&self) -> (&[Node], &[ElementBlock]) {
@@ -311,7 +340,7 @@ impl<'a> SliceStorage<'a> {
     }
 }
 
-impl Storage for SliceStorage<'_> {
+impl sealed::Sealed for SliceStorage<'_> {
     fn parts(&self) -> (&[Node], &[ElementBlock]) {
         (self.nodes, self.elems)
     }
@@ -326,76 +355,87 @@ impl Storage for SliceStorage<'_> {
     }
 }
 
-/// Storage in containers the caller owns and chooses, such as `Vec`s on a
-/// host, where capacities are known only at run time (a mesh read from a
-/// file). The core itself never allocates: [`OwnedStorage::with_capacity`]
-/// fills the containers through their `FromIterator`, in the caller's crate,
-/// all node containers to the same length.
+/// Storage in `Vec`s, sized at run time (feature `alloc`): for host
+/// programs whose meshes are known only when they run. Every node has a grab
+/// and a load slot, so any node can be grabbed or loaded.
 ///
 /// ```
-/// # use corofem::{BoxMesh, BuildOptions, ElementBlock, Material, Node, NodeEntry, NodeWork, OwnedStorage, Scene};
-/// type VecStorage = OwnedStorage<Vec<Node>, Vec<NodeWork>, Vec<ElementBlock>, Vec<NodeEntry>>;
+/// # use corofem::{BoxMesh, BuildOptions, Material, VecScene};
 /// // A 2×2×2-cell box (27 nodes, 48 tetrahedra), its size known at run time.
 /// let mesh = BoxMesh { size: [0.1; 3], cells: [2; 3], tets_per_cell: 6 };
 /// let mut nodes = vec![[0.0f32; 3]; mesh.node_count()];
 /// let mut tets = vec![[0u32; 4]; mesh.tet_count()];
 /// let (n, t) = mesh.generate(&mut nodes, &mut tets)?;
-/// // Room for exactly those nodes (each can be grabbed or loaded) and tetrahedra.
-/// let mut scene = Scene::with_storage(VecStorage::with_capacity(n, t));
+/// // Room for exactly those nodes and tetrahedra.
+/// let mut scene = VecScene::with_capacity(n, t);
 /// let material = Material { young: 1.0e5, poisson: 0.3, density: 1000.0 };
 /// scene.build(&nodes[..n], &tets[..t], &material, BuildOptions::default())?;
 /// scene.step()?;
 /// assert_eq!(scene.node_count(), n);
 /// # Ok::<(), Box<dyn std::error::Error>>(())
 /// ```
-#[derive(Clone, Debug)]
-pub struct OwnedStorage<N, W, E, G> {
-    nodes: N,
-    work: W,
-    elems: E,
-    grabs: G,
-    loads: G,
+#[cfg(feature = "alloc")]
+#[derive(Clone, Debug, Default)]
+pub struct VecStorage {
+    nodes: alloc::vec::Vec<Node>,
+    work: alloc::vec::Vec<NodeWork>,
+    elems: alloc::vec::Vec<ElementBlock>,
+    grabs: alloc::vec::Vec<NodeEntry>,
+    loads: alloc::vec::Vec<NodeEntry>,
 }
 
-impl<N, W, E, G> OwnedStorage<N, W, E, G>
-where
-    N: FromIterator<Node>,
-    W: FromIterator<NodeWork>,
-    E: FromIterator<ElementBlock>,
-    G: FromIterator<NodeEntry>,
-{
-    /// Room for `nodes` nodes, with a grab and a load slot for each, and
-    /// `elements` tetrahedra, every slot empty.
+#[cfg(feature = "alloc")]
+impl VecStorage {
+    /// Room for `nodes` nodes (at most the 65 536 a scene addresses), each
+    /// with a grab and a load slot, and `elements` tetrahedra, every slot
+    /// empty. Never panics: if the memory cannot be had (or its size
+    /// overflows), that part of the storage stays empty and
+    /// [`Scene::build`](crate::Scene::build) refuses a mesh that needs it
+    /// ([`Error::TooManyNodes`](crate::Error::TooManyNodes),
+    /// [`Error::TooManyElements`](crate::Error::TooManyElements)).
     #[must_use]
     pub fn with_capacity(nodes: usize, elements: usize) -> Self {
+        let nodes = nodes.min(crate::scene::MAX_NODES);
         let blocks = crate::element_blocks(elements);
+        let node_slots = (slots(nodes, Node::EMPTY), slots(nodes, NodeWork::EMPTY));
+        // The node and work slots have one length: both, or neither.
+        let (nodes, work) = match node_slots {
+            (n, w) if n.len() == w.len() => (n, w),
+            _ => (alloc::vec::Vec::new(), alloc::vec::Vec::new()),
+        };
+        let entries = nodes.len();
         Self {
-            nodes: core::iter::repeat_n(Node::EMPTY, nodes).collect(),
-            work: core::iter::repeat_n(NodeWork::EMPTY, nodes).collect(),
-            elems: core::iter::repeat_n(ElementBlock::EMPTY, blocks).collect(),
-            grabs: core::iter::repeat_n(NodeEntry::EMPTY, nodes).collect(),
-            loads: core::iter::repeat_n(NodeEntry::EMPTY, nodes).collect(),
+            nodes,
+            work,
+            elems: slots(blocks, ElementBlock::EMPTY),
+            grabs: slots(entries, NodeEntry::EMPTY),
+            loads: slots(entries, NodeEntry::EMPTY),
         }
     }
 }
 
-impl<N, W, E, G> Storage for OwnedStorage<N, W, E, G>
-where
-    N: AsRef<[Node]> + AsMut<[Node]>,
-    W: AsMut<[NodeWork]>,
-    E: AsRef<[ElementBlock]> + AsMut<[ElementBlock]>,
-    G: AsMut<[NodeEntry]>,
-{
+/// `n` copies of `value`, or none if the memory cannot be had.
+#[cfg(feature = "alloc")]
+fn slots<T: Copy>(n: usize, value: T) -> alloc::vec::Vec<T> {
+    let mut v = alloc::vec::Vec::new();
+    if v.try_reserve_exact(n).is_ok() {
+        v.resize(n, value);
+    }
+    v
+}
+
+#[cfg(feature = "alloc")]
+impl sealed::Sealed for VecStorage {
     fn parts(&self) -> (&[Node], &[ElementBlock]) {
-        (self.nodes.as_ref(), self.elems.as_ref())
+        (&self.nodes, &self.elems)
     }
     fn parts_mut(&mut self) -> PartsMut<'_> {
         PartsMut {
-            nodes: self.nodes.as_mut(),
-            work: self.work.as_mut(),
-            elems: self.elems.as_mut(),
-            grabs: self.grabs.as_mut(),
-            loads: self.loads.as_mut(),
+            nodes: &mut self.nodes,
+            work: &mut self.work,
+            elems: &mut self.elems,
+            grabs: &mut self.grabs,
+            loads: &mut self.loads,
         }
     }
 }

@@ -13,6 +13,7 @@
 //! spring is as stable as the elastic forces at any time step. The force on the
 //! tool is minus the spring force on the body at the end of the step.
 
+use crate::error::Parameter;
 use crate::math::{add, Vec3};
 
 /// State of the tool.
@@ -60,14 +61,16 @@ impl<S: crate::Storage> crate::Scene<S> {
         use crate::storage::{GRABBED, LISTED};
         let n_nodes = self.hdr.n_nodes;
         if let Some(&i) = nodes.iter().find(|&&i| i as usize >= n_nodes) {
-            return Err(crate::Error::NodeOutOfRange { node: i as usize });
+            return Err(crate::Error::NodeOutOfRange { node: i });
         }
         if nodes.is_empty() {
-            return Err(crate::Error::InvalidParameter { name: "tool.nodes" });
+            return Err(crate::Error::InvalidParameter {
+                parameter: Parameter::ToolNodes,
+            });
         }
         if !(stiffness >= 0.0 && stiffness.is_finite()) {
             return Err(crate::Error::InvalidParameter {
-                name: "tool.stiffness",
+                parameter: Parameter::ToolStiffness,
             });
         }
         let p = self.store.parts_mut();
@@ -138,10 +141,13 @@ impl<S: crate::Storage> crate::Scene<S> {
         self.hdr.tool.target
     }
 
-    /// Moves the tool target (m). A non-finite target is refused and nothing changes.
-    pub fn set_tool_target(&mut self, target: Vec3) -> Result<(), crate::StepError> {
+    /// Moves the tool target (m). A non-finite target is
+    /// [`Parameter::ToolTarget`] and nothing changes.
+    pub fn set_tool_target(&mut self, target: Vec3) -> Result<(), crate::Error> {
         if !crate::math::is_finite3(target) {
-            return Err(crate::StepError::NonFiniteInput);
+            return Err(crate::Error::InvalidParameter {
+                parameter: Parameter::ToolTarget,
+            });
         }
         self.hdr.tool.target = target;
         Ok(())
@@ -164,7 +170,9 @@ impl<S: crate::Storage> crate::Scene<S> {
         step: impl FnOnce(&mut Self) -> Result<crate::StepStats, crate::StepError>,
     ) -> Result<crate::StepStats, crate::StepError> {
         let previous = self.hdr.tool.target;
-        self.set_tool_target(target)?;
+        // A step input, so a step error (`set_tool_target` says `Error`).
+        self.set_tool_target(target)
+            .map_err(|_| crate::StepError::NonFiniteInput)?;
         let stepped = step(self);
         if stepped.is_err() {
             self.hdr.tool.target = previous;

@@ -99,7 +99,7 @@ fn run(u: &mut Unstructured) -> Result<()> {
         }
         Ok(()) => {
             assert_eq!((s.node_count(), s.element_count()), (n, t));
-            for i in 0..n {
+            for i in 0..n as u32 {
                 let m = s.mass(i).unwrap();
                 assert!(m > 0.0 && m.is_finite(), "node {i} mass {m}");
             }
@@ -124,7 +124,7 @@ fn run(u: &mut Unstructured) -> Result<()> {
         let _ = s.set_settings(settings);
     }
     for _ in 0..u.int_in_range(0u8..=3)? {
-        let i = u.int_in_range(0..=n - 1)?;
+        let i = u.int_in_range(0..=(n - 1) as u32)?;
         let _ = s.set_force(i, common::any3(u)?);
     }
     for _ in 0..u.int_in_range(0u8..=8)? {

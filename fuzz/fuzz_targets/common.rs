@@ -81,7 +81,7 @@ pub fn material(u: &mut Unstructured) -> Result<Material> {
 
 /// Step settings, valid or not.
 pub fn settings(u: &mut Unstructured) -> Result<Settings> {
-    let method = *u.choose(Method::ALL)?;
+    let method = *u.choose(Method::COMPILED)?;
     let dt = if u.ratio(1u8, 8)? {
         any_f32(u)?
     } else {
@@ -138,7 +138,7 @@ pub struct Fingerprint {
     rest: Vec<[u32; 3]>,
     masses: Vec<u32>,
     young: Vec<u32>,
-    elements: Vec<Option<[u16; 4]>>,
+    elements: Vec<Option<[u32; 4]>>,
     ground: Option<Plane>,
     tool: (bool, [u32; 3]),
 }
@@ -152,9 +152,13 @@ pub fn fingerprint<S: Storage>(s: &Scene<S>) -> Fingerprint {
         counts: (n, e),
         settings: *s.settings(),
         time: s.time().to_bits(),
-        fixed: (0..n).map(|i| s.is_fixed(i)).collect(),
-        rest: (0..n).map(|i| bits(s.rest_position(i).unwrap())).collect(),
-        masses: (0..n).map(|i| s.mass(i).unwrap().to_bits()).collect(),
+        fixed: (0..n as u32).map(|i| s.is_fixed(i)).collect(),
+        rest: (0..n as u32)
+            .map(|i| bits(s.rest_position(i).unwrap()))
+            .collect(),
+        masses: (0..n as u32)
+            .map(|i| s.mass(i).unwrap().to_bits())
+            .collect(),
         young: (0..e).map(|i| s.young(i).unwrap().to_bits()).collect(),
         elements: (0..e).map(|i| s.element_nodes(i)).collect(),
         ground: s.ground(),

@@ -49,7 +49,7 @@ fuzz_target!(|data: &[u8]| {
     assert_eq!(stats.nodes, mesh.nodes.len());
     if mesh.nodes.len() <= 1 << 16 && mesh.tets.len() <= 100_000 {
         let (nodes, tets) = corofem_io::to_core(&mesh, 1.0);
-        let mut scene = corofem_io::heap_scene(nodes.len(), tets.len());
+        let mut scene = corofem::VecScene::with_capacity(nodes.len(), tets.len());
         if scene
             .build(
                 &nodes,

@@ -9,14 +9,14 @@ mod common;
 
 use arbitrary::{Result, Unstructured};
 use corofem::{BoxMesh, BuildOptions, Error, StaticSettings};
-use corofem_io::HeapScene;
+use corofem::VecScene;
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
     let _ = run(&mut Unstructured::new(data));
 });
 
-fn scene(u: &mut Unstructured) -> Result<Option<HeapScene>> {
+fn scene(u: &mut Unstructured) -> Result<Option<VecScene>> {
     let b = BoxMesh {
         size: [
             common::magnitude(u, -3, 3)?,
@@ -49,7 +49,7 @@ fn scene(u: &mut Unstructured) -> Result<Option<HeapScene>> {
         p[0] += offset;
     }
     let material = common::material(u)?;
-    let mut s = corofem_io::heap_scene(nodes.len(), tets.len());
+    let mut s = corofem::VecScene::with_capacity(nodes.len(), tets.len());
     Ok(
         s.build(&nodes, &tets, &material, BuildOptions { reorient: true })
             .ok()
@@ -75,7 +75,7 @@ fn run(u: &mut Unstructured) -> Result<()> {
             })
             .collect()
     };
-    let field = |u: &mut Unstructured, s: &HeapScene, around: bool| -> Result<Vec<[f32; 3]>> {
+    let field = |u: &mut Unstructured, s: &VecScene, around: bool| -> Result<Vec<[f32; 3]>> {
         let scale = common::any_f32(u)?;
         let base: Vec<[f32; 3]> = if around {
             s.positions().collect()
@@ -103,7 +103,7 @@ fn run(u: &mut Unstructured) -> Result<()> {
                     .map_err(|_| false)
             }
             6 => {
-                let i = u.int_in_range(0..=n)?;
+                let i = u.int_in_range(0..=n as u32)?;
                 s.set_force(i, common::any3(u)?).map_err(|_| false)
             }
             7 => s.fix_nodes(&ids(u)?).map_err(|_| false),

@@ -1,11 +1,10 @@
-//! Shared helpers for the host tests: heap storage for big scenes, the shared
-//! meshes, generated boxes and small f64 vector maths for checking.
+//! Shared helpers for the host tests: the shared meshes, generated boxes and
+//! small f64 vector maths for checking. Big scenes go in the core's
+//! `VecScene`.
 
 use std::path::PathBuf;
 
-use corofem::{BoxMesh, BuildOptions, Material, Scene, Storage};
-
-pub use corofem_io::{HeapScene, HeapStorage};
+use corofem::{BoxMesh, BuildOptions, Material, Scene, Storage, VecScene};
 
 pub mod reliability;
 
@@ -20,8 +19,8 @@ pub struct CoreMesh {
 
 impl CoreMesh {
     /// Builds a scene of exactly this mesh's size.
-    pub fn scene(&self, material: &Material) -> HeapScene {
-        let mut s = corofem_io::heap_scene(self.nodes.len(), self.tets.len());
+    pub fn scene(&self, material: &Material) -> VecScene {
+        let mut s = VecScene::with_capacity(self.nodes.len(), self.tets.len());
         s.build(&self.nodes, &self.tets, material, BuildOptions::default())
             .expect("valid mesh");
         s

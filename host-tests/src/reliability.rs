@@ -15,7 +15,8 @@ use std::time::Instant;
 
 use corofem::{Material, Method, Settings, StepError};
 
-use crate::{box_mesh, f64v, shared_mesh, CoreMesh, HeapScene, Rng};
+use crate::{box_mesh, f64v, shared_mesh, CoreMesh, Rng};
+use corofem::VecScene;
 
 /// A body to torture: mesh, held nodes and the patch the tool pulls.
 #[derive(Clone, Debug)]
@@ -199,7 +200,8 @@ pub const ALPHA_K: f32 = 0.0;
 /// as the paper does with its crushed rabbit.
 pub fn run_case(body: &Body, case: Case, method: Method, max_recovery_steps: u64) -> Outcome {
     let start = Instant::now();
-    let mut scene: HeapScene = corofem_io::heap_scene(body.mesh.nodes.len(), body.mesh.tets.len());
+    let mut scene: VecScene =
+        corofem::VecScene::with_capacity(body.mesh.nodes.len(), body.mesh.tets.len());
     let material = Material {
         young: case.young,
         poisson: case.poisson,
@@ -259,7 +261,7 @@ pub fn run_case(body: &Body, case: Case, method: Method, max_recovery_steps: u64
         .grabbed
         .iter()
         .map(|&i| {
-            let p = scene.position(i as usize).unwrap();
+            let p = scene.position(i).unwrap();
             [0, 1, 2].map(|c| p[c] - origin[c])
         })
         .collect();
@@ -272,7 +274,7 @@ pub fn run_case(body: &Body, case: Case, method: Method, max_recovery_steps: u64
     let mut work = 0.0f64;
     let mut max_work = 0.0f64;
     let mut max_energy = 0.0f64;
-    let energy = |s: &mut HeapScene| f64::from(s.kinetic_energy()) + f64::from(s.elastic_energy());
+    let energy = |s: &mut VecScene| f64::from(s.kinetic_energy()) + f64::from(s.elastic_energy());
     let every = (pull_steps / 50).max(1);
     for step in 0..pull_steps + hold_steps {
         let a = ((step + 1) as f32 / pull_steps as f32).min(1.0);
@@ -280,7 +282,7 @@ pub fn run_case(body: &Body, case: Case, method: Method, max_recovery_steps: u64
         let before: Vec<[f32; 3]> = body
             .grabbed
             .iter()
-            .map(|&i| scene.position(i as usize).unwrap())
+            .map(|&i| scene.position(i).unwrap())
             .collect();
         match scene.step_haptic(target) {
             Ok(stats) => {
@@ -288,7 +290,7 @@ pub fn run_case(body: &Body, case: Case, method: Method, max_recovery_steps: u64
                 // W += Σ fᵢ·Δxᵢ with the spring force at the end of the step
                 // (implicit Euler's force).
                 for ((&i, x0), o) in body.grabbed.iter().zip(&before).zip(&offsets) {
-                    let x1 = scene.position(i as usize).unwrap();
+                    let x1 = scene.position(i).unwrap();
                     for c in 0..3 {
                         let f = f64::from(k_node) * f64::from(target[c] + o[c] - x1[c]);
                         work += f * f64::from(x1[c] - x0[c]);
@@ -406,7 +408,7 @@ fn verbose() -> bool {
 }
 
 /// Whether every position and velocity is finite.
-pub fn all_finite(scene: &HeapScene) -> bool {
+pub fn all_finite(scene: &VecScene) -> bool {
     scene
         .positions()
         .chain(scene.velocities())
@@ -414,8 +416,8 @@ pub fn all_finite(scene: &HeapScene) -> bool {
 }
 
 /// Largest node displacement from rest over `size`.
-pub fn shape_error(scene: &HeapScene, mesh: &CoreMesh, size: f64) -> f64 {
-    (0..mesh.nodes.len())
+pub fn shape_error(scene: &VecScene, mesh: &CoreMesh, size: f64) -> f64 {
+    (0..mesh.nodes.len() as u32)
         .map(|i| f64v::norm(f64v::up(scene.displacement(i).unwrap())))
         .fold(0.0, f64::max)
         / size
@@ -592,7 +594,7 @@ pub fn soak(body: &Body, method: Method, steps: u64, check_every: u64, seed: u64
         poisson: 0.45,
         density: body.density,
     };
-    let mut scene = corofem_io::heap_scene(body.mesh.nodes.len(), body.mesh.tets.len());
+    let mut scene = corofem::VecScene::with_capacity(body.mesh.nodes.len(), body.mesh.tets.len());
     scene
         .build(
             &body.mesh.nodes,
@@ -613,7 +615,7 @@ pub fn soak(body: &Body, method: Method, steps: u64, check_every: u64, seed: u64
     scene.set_settings(settings).unwrap();
     scene.fix_nodes(&body.fixed).unwrap();
     // The hanging rest shape: settle once, long, and keep it as reference.
-    let settle = |s: &mut HeapScene, n: u64| -> u64 {
+    let settle = |s: &mut VecScene, n: u64| -> u64 {
         let mut refused = 0;
         for _ in 0..n {
             if s.step().is_err() {
@@ -634,11 +636,11 @@ pub fn soak(body: &Body, method: Method, steps: u64, check_every: u64, seed: u64
     let mut next_check = check_every;
     while out.steps < steps {
         // A drag: grab a node and its nearest neighbours.
-        let centre = (rng.next_f64() * n as f64) as usize % n;
+        let centre = (rng.next_f64() * n as f64) as u32 % n as u32;
         let c = scene.position(centre).unwrap();
         let mut near: Vec<(f32, u32)> = (0..n as u32)
             .map(|i| {
-                let p = scene.position(i as usize).unwrap();
+                let p = scene.position(i).unwrap();
                 let d = (0..3).map(|k| (p[k] - c[k]).powi(2)).sum::<f32>();
                 (d, i)
             })

@@ -41,7 +41,7 @@ fn settled(mesh: &CoreMesh, method: Method) -> Vec<[f32; 3]> {
     for _ in 0..400 {
         s.step().unwrap();
     }
-    (0..mesh.nodes.len())
+    (0..mesh.nodes.len() as u32)
         .map(|i| s.displacement(i).unwrap())
         .collect()
 }

@@ -2,7 +2,8 @@
 //! after each (same state hash, counts, settings and fixed nodes).
 
 use corofem::{
-    BuildOptions, Error, Material, Plane, Settings, StaticScene, StaticSettings, StepError,
+    BuildOptions, Error, Material, Parameter, Plane, Settings, StaticScene, StaticSettings,
+    StepError,
 };
 use corofem_host_tests::box_mesh;
 
@@ -39,8 +40,8 @@ type Fingerprint = (
 );
 
 fn fingerprint(s: &Small) -> Fingerprint {
-    let fixed = (0..s.node_count()).map(|i| s.is_fixed(i)).collect();
-    let rest = (0..s.node_count())
+    let fixed = (0..s.node_count() as u32).map(|i| s.is_fixed(i)).collect();
+    let rest = (0..s.node_count() as u32)
         .map(|i| s.rest_position(i).unwrap())
         .collect();
     (
@@ -140,27 +141,27 @@ fn every_build_error_names_the_culprit_and_changes_nothing() {
     rejects(Error::UnusedNode { node: 4 }, |s| {
         s.build(&five, &[[0, 1, 2, 3]], &m, o)
     });
-    for (bad, name) in [
-        (Material { young: -1.0, ..m }, "young"),
+    for (bad, parameter) in [
+        (Material { young: -1.0, ..m }, Parameter::Young),
         (
             Material {
                 young: f32::NAN,
                 ..m
             },
-            "young",
+            Parameter::Young,
         ),
-        (Material { poisson: 0.5, ..m }, "poisson"),
-        (Material { poisson: -0.1, ..m }, "poisson"),
-        (Material { density: 0.0, ..m }, "density"),
+        (Material { poisson: 0.5, ..m }, Parameter::Poisson),
+        (Material { poisson: -0.1, ..m }, Parameter::Poisson),
+        (Material { density: 0.0, ..m }, Parameter::Density),
         (
             Material {
                 density: f32::INFINITY,
                 ..m
             },
-            "density",
+            Parameter::Density,
         ),
     ] {
-        rejects(Error::InvalidParameter { name }, |s| {
+        rejects(Error::InvalidParameter { parameter }, |s| {
             s.build(&TET, &[[0, 1, 2, 3]], &bad, o)
         });
     }
@@ -188,122 +189,181 @@ fn every_setter_error_changes_nothing() {
     rejects(Error::NodeOutOfRange { node: 99 }, |s| {
         s.set_force(99, [0.0; 3])
     });
-    rejects(Error::InvalidParameter { name: "force" }, |s| {
-        s.set_force(1, [f32::NAN, 0.0, 0.0])
-    });
+    rejects(
+        Error::InvalidParameter {
+            parameter: Parameter::Force,
+        },
+        |s| s.set_force(1, [f32::NAN, 0.0, 0.0]),
+    );
     rejects(Error::NodeOutOfRange { node: 40 }, |s| {
         s.grab(&[2, 40], 10.0)
     });
-    rejects(Error::InvalidParameter { name: "tool.nodes" }, |s| {
-        s.grab(&[], 10.0)
-    });
     rejects(
         Error::InvalidParameter {
-            name: "tool.stiffness",
+            parameter: Parameter::ToolNodes,
+        },
+        |s| s.grab(&[], 10.0),
+    );
+    rejects(
+        Error::InvalidParameter {
+            parameter: Parameter::ToolStiffness,
         },
         |s| s.grab(&[2], -1.0),
     );
     rejects(Error::ElementOutOfRange { element: 12 }, |s| {
         s.set_young(12, 1.0)
     });
-    rejects(Error::InvalidParameter { name: "young" }, |s| {
-        s.set_young(0, -5.0)
-    });
-    rejects(Error::InvalidParameter { name: "young" }, |s| {
-        s.set_young_all(f32::INFINITY)
-    });
-    rejects(Error::InvalidParameter { name: "poisson" }, |s| {
-        s.set_poisson(0.7)
-    });
-    rejects(Error::InvalidParameter { name: "ground" }, |s| {
-        s.set_ground(Some(Plane {
-            normal: [0.0; 3],
-            offset: 0.0,
-        }))
-    });
-    rejects(Error::InvalidParameter { name: "positions" }, |s| {
-        s.set_positions(&[[0.0; 3]; 3])
-    });
-    rejects(Error::InvalidParameter { name: "velocities" }, |s| {
-        let mut v = vec![[0.0f32; 3]; s.node_count()];
-        v[4][1] = f32::NAN;
-        s.set_velocities(&v)
-    });
     rejects(
         Error::InvalidParameter {
-            name: "displacements",
+            parameter: Parameter::Young,
+        },
+        |s| s.set_young(0, -5.0),
+    );
+    rejects(
+        Error::InvalidParameter {
+            parameter: Parameter::Young,
+        },
+        |s| s.set_young_all(f32::INFINITY),
+    );
+    rejects(
+        Error::InvalidParameter {
+            parameter: Parameter::Poisson,
+        },
+        |s| s.set_poisson(0.7),
+    );
+    rejects(
+        Error::InvalidParameter {
+            parameter: Parameter::Ground,
+        },
+        |s| {
+            s.set_ground(Some(Plane {
+                normal: [0.0; 3],
+                offset: 0.0,
+            }))
+        },
+    );
+    rejects(
+        Error::InvalidParameter {
+            parameter: Parameter::Positions,
+        },
+        |s| s.set_positions(&[[0.0; 3]; 3]),
+    );
+    rejects(
+        Error::InvalidParameter {
+            parameter: Parameter::Velocities,
+        },
+        |s| {
+            let mut v = vec![[0.0f32; 3]; s.node_count()];
+            v[4][1] = f32::NAN;
+            s.set_velocities(&v)
+        },
+    );
+    rejects(
+        Error::InvalidParameter {
+            parameter: Parameter::Displacements,
         },
         |s| s.set_displacements(&[]),
     );
-    for (bad, name) in [
+    for (bad, parameter) in [
         (
             Settings {
                 dt: 0.0,
                 ..Settings::default()
             },
-            "dt",
+            Parameter::Dt,
         ),
         (
             Settings {
                 dt: f32::NAN,
                 ..Settings::default()
             },
-            "dt",
+            Parameter::Dt,
         ),
         (
             Settings {
                 cg_iterations: 0,
                 ..Settings::default()
             },
-            "cg_iterations",
+            Parameter::CgIterations,
         ),
         (
             Settings {
                 cg_tolerance: -1.0,
                 ..Settings::default()
             },
-            "cg_tolerance",
+            Parameter::CgTolerance,
         ),
         (
             Settings {
                 rayleigh_mass: -1.0,
                 ..Settings::default()
             },
-            "rayleigh_mass",
+            Parameter::RayleighMass,
         ),
         (
             Settings {
                 rayleigh_stiffness: f32::NAN,
                 ..Settings::default()
             },
-            "rayleigh_stiffness",
+            Parameter::RayleighStiffness,
         ),
         (
             Settings {
                 gravity: [0.0, f32::INFINITY, 0.0],
                 ..Settings::default()
             },
-            "gravity",
+            Parameter::Gravity,
         ),
     ] {
-        rejects(Error::InvalidParameter { name }, |s| s.set_settings(bad));
+        rejects(Error::InvalidParameter { parameter }, |s| {
+            s.set_settings(bad)
+        });
     }
-    rejects(Error::InvalidParameter { name: "out" }, |s| {
-        s.elastic_forces(&mut [[0.0; 3]; 2])
-    });
+    rejects(
+        Error::InvalidParameter {
+            parameter: Parameter::ForcesOut,
+        },
+        |s| s.elastic_forces(&mut [[0.0; 3]; 2]),
+    );
 }
 
 #[test]
 fn static_solve_errors() {
-    rejects(Error::InvalidParameter { name: "static" }, |s| {
-        s.solve_static(
-            &StaticSettings {
+    let d = StaticSettings::default();
+    for (bad, parameter) in [
+        (
+            StaticSettings {
                 cg_iterations: 0,
-                ..StaticSettings::default()
+                ..d
             },
-            |_| {},
-        )
-    });
+            Parameter::StaticCgIterations,
+        ),
+        (
+            StaticSettings {
+                cg_tolerance: f32::NAN,
+                ..d
+            },
+            Parameter::StaticCgTolerance,
+        ),
+        (
+            StaticSettings {
+                tolerance: -1.0,
+                ..d
+            },
+            Parameter::StaticTolerance,
+        ),
+        (
+            StaticSettings {
+                update_tolerance: -1.0,
+                ..d
+            },
+            Parameter::StaticUpdateTolerance,
+        ),
+    ] {
+        rejects(Error::InvalidParameter { parameter }, |s| {
+            s.solve_static(&bad, |_| {})
+        });
+    }
     rejects(Error::Unconstrained, |s| {
         s.unfix_all();
         let r = s.solve_static(&StaticSettings::default(), |_| {});
@@ -329,6 +389,85 @@ fn static_solve_errors() {
     );
     // The solve keeps the last finite iterate; here the very first update overflowed.
     assert_eq!(s.state_hash(), before);
+}
+
+/// The tool target's setter returns `Error`, as every setter does; a step
+/// given a bad target returns the step's error. Neither moves the target.
+#[test]
+fn a_non_finite_tool_target_is_refused_by_the_setter_and_the_step() {
+    let mut s = scene();
+    s.grab(&[10, 11], 100.0).unwrap();
+    let target = s.tool_target();
+    let before = fingerprint(&s);
+    assert_eq!(
+        s.set_tool_target([0.0, f32::NAN, 0.0]),
+        Err(Error::InvalidParameter {
+            parameter: Parameter::ToolTarget
+        })
+    );
+    assert_eq!(
+        s.step_haptic([f32::INFINITY, 0.0, 0.0]),
+        Err(StepError::NonFiniteInput)
+    );
+    assert_eq!(s.tool_target(), target);
+    assert_eq!(fingerprint(&s), before);
+    s.set_tool_target([0.1, 0.2, 0.3]).unwrap();
+    assert_eq!(s.tool_target(), [0.1, 0.2, 0.3]);
+}
+
+/// Each parameter error says which parameter and what a valid value is;
+/// no two say the same.
+#[test]
+fn parameter_errors_say_what_is_valid() {
+    use Parameter::*;
+    let all = [
+        Young,
+        Poisson,
+        Density,
+        Dt,
+        CgIterations,
+        CgTolerance,
+        RayleighMass,
+        RayleighStiffness,
+        Gravity,
+        Force,
+        Positions,
+        Displacements,
+        Velocities,
+        ToolNodes,
+        ToolStiffness,
+        ToolTarget,
+        Ground,
+        StaticCgIterations,
+        StaticCgTolerance,
+        StaticTolerance,
+        StaticUpdateTolerance,
+        ForcesOut,
+        ProductInput,
+        ProductOut,
+        Cells,
+        Size,
+        TetsPerCell,
+    ];
+    let messages: std::collections::BTreeSet<String> = all
+        .iter()
+        .map(|&parameter| Error::InvalidParameter { parameter }.to_string())
+        .collect();
+    assert_eq!(messages.len(), all.len());
+    for m in &messages {
+        assert!(m.starts_with("invalid ") && m.contains(": "), "{m}");
+    }
+    assert_eq!(
+        Error::InvalidParameter { parameter: Dt }.to_string(),
+        "invalid time step `dt`: it must be finite and > 0 s"
+    );
+    assert_eq!(
+        Error::MethodNotCompiled {
+            method: corofem::Method::Polar
+        }
+        .to_string(),
+        "element method `polar` is not compiled into this build (corofem feature `polar`)"
+    );
 }
 
 #[test]
@@ -492,14 +631,16 @@ fn setters_refuse_values_whose_position_or_displacement_overflows() {
     positions[0][2] = -f32::MAX; // −MAX − x₀ = −2 MAX: overflows
     assert_eq!(
         s.set_positions(&positions),
-        Err(Error::InvalidParameter { name: "positions" })
+        Err(Error::InvalidParameter {
+            parameter: Parameter::Positions
+        })
     );
     let mut displacements = vec![[0.0f32; 3]; 4];
     displacements[0][2] = f32::MAX; // x₀ + MAX = 2 MAX: overflows
     assert_eq!(
         s.set_displacements(&displacements),
         Err(Error::InvalidParameter {
-            name: "displacements"
+            parameter: Parameter::Displacements
         })
     );
     assert_eq!(s.state_hash(), before);

@@ -220,9 +220,7 @@ fn converged_cg_step_equals_a_dense_direct_solve() {
     let v: Vec<[f32; 3]> = (0..n).map(|_| rng.vec3(0.5)).collect();
     scene.set_positions(&x).unwrap();
     scene.set_velocities(&v).unwrap();
-    let v0: Vec<V> = (0..n)
-        .map(|i| f64v::up(scene.velocity(i).unwrap()))
-        .collect();
+    let v0: Vec<V> = scene.velocities().map(f64v::up).collect();
 
     // Assemble A and b in f64.
     let dof = 3 * n;
@@ -282,7 +280,7 @@ fn converged_cg_step_equals_a_dense_direct_solve() {
     let mut worst = 0.0f64;
     let mut scale = 0.0f64;
     for (r, &i) in free.iter().enumerate() {
-        let dv = scene.velocity(i / 3).unwrap()[i % 3] as f64 - v0[i / 3][i % 3];
+        let dv = scene.velocity((i / 3) as u32).unwrap()[i % 3] as f64 - v0[i / 3][i % 3];
         worst = worst.max((dv - dv_ref[r]).abs());
         scale = scale.max(dv_ref[r].abs());
     }

@@ -11,7 +11,7 @@ fn run(cells: [u32; 3]) -> scene::Outcome {
     let (n, t) = (mesh.node_count(), mesh.tet_count());
     let mut nodes = vec![[0.0f32; 3]; n];
     let mut tets = vec![[0u32; 4]; t];
-    let mut s = corofem_io::heap_scene(n, t);
+    let mut s = corofem::VecScene::with_capacity(n, t);
     let start = scene::setup(&mut s, cells, &mut nodes, &mut tets).expect("scene builds");
     let out = scene::run(&mut s, start, |s, target| s.step_haptic(target)).expect("steps");
     println!(

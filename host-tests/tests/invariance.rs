@@ -100,7 +100,7 @@ fn sag(mesh: &CoreMesh, r: &[[f64; 3]; 3], method: Method) -> Vec<[f64; 3]> {
     };
     let last = scene.solve_static(&cfg, |_| {}).unwrap();
     assert!(last.converged, "{last:?}");
-    (0..mesh.nodes.len())
+    (0..mesh.nodes.len() as u32)
         .map(|i| f64v::up(scene.displacement(i).unwrap()))
         .collect()
 }

@@ -97,7 +97,7 @@ fn internal_forces_have_no_net_force_or_torque_on_real_meshes() {
 
 /// Angular momentum about the centre of mass (kg·m²/s), in f64.
 fn spin<S: corofem::Storage>(scene: &corofem::Scene<S>) -> f64 {
-    let n = scene.node_count();
+    let n = scene.node_count() as u32;
     let (mut m, mut c) = (0.0f64, [0.0f64; 3]);
     for i in 0..n {
         let (mi, x) = (

@@ -9,7 +9,7 @@ use corofem_host_tests::{f64v, shared_mesh, CoreMesh, Rng};
 /// scales `Σ m |v|`, `Σ m |x| |v|` to compare drifts with — all in f64.
 fn momenta<S: corofem::Storage>(s: &corofem::Scene<S>) -> ([f64; 3], [f64; 3], f64, f64) {
     let (mut p, mut l, mut ps, mut ls) = ([0.0f64; 3], [0.0f64; 3], 0.0, 0.0);
-    for i in 0..s.node_count() {
+    for i in 0..s.node_count() as u32 {
         let (m, x, v) = (
             s.mass(i).unwrap() as f64,
             f64v::up(s.position(i).unwrap()),

@@ -17,7 +17,7 @@ fn shape_error<S: corofem::Storage>(scene: &corofem::Scene<S>, mesh: &CoreMesh) 
         }
     }
     let diag = f64v::norm([hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]]);
-    (0..mesh.nodes.len())
+    (0..mesh.nodes.len() as u32)
         .map(|i| f64v::norm(f64v::up(scene.displacement(i).unwrap())))
         .fold(0.0, f64::max)
         / diag
@@ -29,7 +29,7 @@ fn edge_error<S: corofem::Storage>(scene: &corofem::Scene<S>, mesh: &CoreMesh) -
     let mut worst = 0.0f64;
     for t in &mesh.tets {
         for (a, b) in [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)] {
-            let (i, j) = (t[a] as usize, t[b] as usize);
+            let (i, j) = (t[a], t[b]);
             let d = |p: [f32; 3], q: [f32; 3]| {
                 f64v::norm([
                     p[0] as f64 - q[0] as f64,
@@ -37,7 +37,7 @@ fn edge_error<S: corofem::Storage>(scene: &corofem::Scene<S>, mesh: &CoreMesh) -
                     p[2] as f64 - q[2] as f64,
                 ])
             };
-            let rest = d(mesh.nodes[i], mesh.nodes[j]);
+            let rest = d(mesh.nodes[i as usize], mesh.nodes[j as usize]);
             let now = d(scene.position(i).unwrap(), scene.position(j).unwrap());
             worst = worst.max((now - rest).abs() / rest);
         }

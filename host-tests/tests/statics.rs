@@ -35,7 +35,7 @@ fn static_sag(mesh: &CoreMesh, method: Method) -> Vec<[f32; 3]> {
         .solve_static(&StaticSettings::default(), |_| {})
         .unwrap();
     assert!(last.converged, "{last:?}");
-    (0..mesh.nodes.len())
+    (0..mesh.nodes.len() as u32)
         .map(|i| scene.displacement(i).unwrap())
         .collect()
 }

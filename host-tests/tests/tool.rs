@@ -40,7 +40,7 @@ fn stiff_tool_spring_is_stable_and_reports_the_reaction() {
         // Consistency: the reported force is −k (target − centroid of the grabbed nodes).
         let n = tip.len() as f64;
         let c = tip.iter().fold([0.0f64; 3], |c, &i| {
-            let p = f64v::up(s.position(i as usize).unwrap());
+            let p = f64v::up(s.position(i).unwrap());
             [c[0] + p[0] / n, c[1] + p[1] / n, c[2] + p[2] / n]
         });
         let expect = [
@@ -60,7 +60,7 @@ fn stiff_tool_spring_is_stable_and_reports_the_reaction() {
         st.set_tool_target(target).unwrap();
         st.solve_static(&StaticSettings::default(), |_| {}).unwrap();
         let cs = tip.iter().fold([0.0f64; 3], |c, &i| {
-            let p = f64v::up(st.position(i as usize).unwrap());
+            let p = f64v::up(st.position(i).unwrap());
             [c[0] + p[0] / n, c[1] + p[1] / n, c[2] + p[2] / n]
         });
         let static_force = (cs[2] - target[2] as f64) * k as f64;

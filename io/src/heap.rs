@@ -1,23 +1,8 @@
-//! Scene storage on the heap, sized at run time, and the conversion of a
-//! read mesh to the core's input types — for host programs and tests whose
-//! meshes are only known at run time.
-
-use corofem::{ElementBlock, Node, NodeEntry, NodeWork, OwnedStorage, Scene};
+//! The conversion of a read mesh to the core's input types, for host
+//! programs and tests whose meshes are only known at run time (their scenes
+//! go in the core's `VecScene`, feature `alloc`).
 
 use crate::Mesh;
-
-/// Scene storage in vectors, sized at run time: every node has a grab and
-/// a load slot, so any node can be grabbed or loaded
-/// ([`HeapStorage::with_capacity`]`(nodes, tets)`).
-pub type HeapStorage = OwnedStorage<Vec<Node>, Vec<NodeWork>, Vec<ElementBlock>, Vec<NodeEntry>>;
-
-/// A scene whose storage is on the heap.
-pub type HeapScene = Scene<HeapStorage>;
-
-/// An empty heap scene with room for exactly `nodes` nodes and `elems` tetrahedra.
-pub fn heap_scene(nodes: usize, elems: usize) -> HeapScene {
-    Scene::with_storage(HeapStorage::with_capacity(nodes, elems))
-}
 
 /// The mesh as the core takes it: f32 coordinates (m, after multiplying by
 /// `scale`) and u32 indices. Indices that do not fit in u32 become

@@ -55,7 +55,7 @@ use std::path::Path;
 pub use detect::parse_mesh;
 pub use error::{MeshError, MAX_COUNT};
 pub use gmsh::parse_msh;
-pub use heap::{heap_scene, to_core, HeapScene, HeapStorage};
+pub use heap::to_core;
 pub use mesh::{drop_unused_nodes, Mesh};
 #[cfg(feature = "vtk")]
 pub use series::{VtkSeries, PVD_NAME};

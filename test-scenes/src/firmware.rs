@@ -108,7 +108,10 @@ pub fn setup<S: Storage>(
     tets: &mut [[u32; 4]],
 ) -> Result<Vec3, Error> {
     if grabbed_nodes(cells) > MAX_FACE_NODES {
-        return Err(Error::InvalidParameter { name: "cells" });
+        return Err(Error::TooManyGrabbed {
+            count: grabbed_nodes(cells),
+            capacity: MAX_FACE_NODES,
+        });
     }
     let (n, t) = mesh(cells).generate(nodes, tets)?;
     let nodes = nodes.get(..n).unwrap_or(&[]);

@@ -9,14 +9,9 @@
 
 use std::collections::HashMap;
 
-use corofem::{
-    BoxMesh, BuildOptions, ElementBlock, Material, Method, Node, NodeEntry, NodeWork, OwnedStorage,
-    Plane, Scene, Settings,
-};
-
-/// Scene storage in vectors sized at run time (the body can come from a
-/// file), with a grab and a load slot for every node.
-pub type VecStorage = OwnedStorage<Vec<Node>, Vec<NodeWork>, Vec<ElementBlock>, Vec<NodeEntry>>;
+// The scene is a `VecScene`: in vectors sized at run time (the body can come
+// from a file), with a grab and a load slot for every node.
+use corofem::{BoxMesh, BuildOptions, Material, Method, Plane, Settings, VecScene};
 
 /// A tetrahedral mesh in the core's input form.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -205,7 +200,7 @@ pub struct Hit {
 /// One body on screen: the scene, its surface and the tool's state.
 #[derive(Debug)]
 pub struct App {
-    scene: Scene<VecStorage>,
+    scene: VecScene,
     /// Rest positions after placement (m).
     rest: Vec<[f32; 3]>,
     surface: Vec<[u32; 3]>,
@@ -246,7 +241,7 @@ impl App {
             .iter()
             .map(|p| [p[0] + shift[0], p[1] + shift[1], p[2] + shift[2]])
             .collect();
-        let mut scene = Scene::with_storage(VecStorage::with_capacity(rest.len(), mesh.tets.len()));
+        let mut scene = VecScene::with_capacity(rest.len(), mesh.tets.len());
         scene
             .set_settings(params.settings())
             .map_err(|e| e.to_string())?;
@@ -276,7 +271,6 @@ impl App {
         scene.set_ground(ground).map_err(|e| e.to_string())?;
         let elems: Vec<[u32; 4]> = (0..scene.element_count())
             .filter_map(|e| scene.element_nodes(e))
-            .map(|t| t.map(u32::from))
             .collect();
         let surface = surface(&elems);
         let edge = mean_edge(&rest, &elems);
@@ -333,7 +327,7 @@ impl App {
     }
 
     /// The scene.
-    pub fn scene(&self) -> &Scene<VecStorage> {
+    pub fn scene(&self) -> &VecScene {
         &self.scene
     }
 
@@ -512,7 +506,7 @@ impl App {
         }
         let mut c = [0.0f32; 3];
         for &i in &self.grabbed {
-            let p = self.scene.position(i as usize)?;
+            let p = self.scene.position(i)?;
             c = [c[0] + p[0], c[1] + p[1], c[2] + p[2]];
         }
         let inv = 1.0 / self.grabbed.len() as f32;

@@ -26,23 +26,30 @@ compile_error!(
 );
 
 /// How an element separates rotation from deformation.
+///
+/// Every variant exists in every build; each method's kernel is compiled in
+/// by the cargo feature of the same name ([`Method::feature`]), so a firmware
+/// image carries only the kernels it uses. Selecting a method that is not
+/// compiled in is [`Error::MethodNotCompiled`](crate::Error::MethodNotCompiled)
+/// and leaves the scene unchanged; [`Method::COMPILED`] lists the others.
+// The discriminants are explicit because an all-zero `Settings` (the header
+// of a `static` scene, see `scene::Header`) holds `Qr`: its bits are zero.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Method {
     /// The paper's method: QR frame, `B` recomputed from the current shape every
-    /// step (no ghost forces, no ghost torques). The default.
-    #[cfg(feature = "qr")]
-    Qr,
+    /// step (no ghost forces, no ghost torques). The default. Feature `qr`.
+    Qr = 0,
     /// Polar decomposition of the deformation gradient with `det R = +1`, also
-    /// for inverted elements; about 30% more work than `Qr`.
-    #[cfg(feature = "polar")]
-    Polar,
-    /// No rotation: small-displacement linear elasticity (a rotated body grows).
-    #[cfg(feature = "linear")]
-    Linear,
-    /// QR rotation with `B` frozen at rest, as SOFA's default: shows ghost torques.
-    #[cfg(feature = "qr-rest-b")]
-    QrRestB,
+    /// for inverted elements; about 30% more work than `Qr`. Feature `polar`.
+    Polar = 1,
+    /// No rotation: small-displacement linear elasticity (a rotated body
+    /// grows). Feature `linear`.
+    Linear = 2,
+    /// QR rotation with `B` frozen at rest, as SOFA's default: a demonstration
+    /// of the ghost torques that `Qr` avoids, for comparisons. Feature
+    /// `qr-rest-b`.
+    QrRestB = 3,
 }
 
 impl Default for Method {
@@ -70,8 +77,12 @@ impl Method {
     ))]
     pub const DEFAULT: Method = Method::QrRestB;
 
-    /// Every method compiled into this build, in a fixed order.
-    pub const ALL: &'static [Method] = &[
+    /// Every method, compiled in or not, in a fixed order.
+    pub const VARIANTS: [Method; 4] = [Method::Qr, Method::Polar, Method::Linear, Method::QrRestB];
+
+    /// The methods compiled into this build, in the order of
+    /// [`Method::VARIANTS`]: those a scene accepts.
+    pub const COMPILED: &'static [Method] = &[
         #[cfg(feature = "qr")]
         Method::Qr,
         #[cfg(feature = "polar")]
@@ -82,25 +93,54 @@ impl Method {
         Method::QrRestB,
     ];
 
+    /// Whether this build has the method's kernel (its cargo feature,
+    /// [`Method::feature`], is on).
+    #[must_use]
+    pub const fn is_compiled(self) -> bool {
+        match self {
+            Method::Qr => cfg!(feature = "qr"),
+            Method::Polar => cfg!(feature = "polar"),
+            Method::Linear => cfg!(feature = "linear"),
+            Method::QrRestB => cfg!(feature = "qr-rest-b"),
+        }
+    }
+
+    /// The method itself if it is compiled in, else [`Method::DEFAULT`].
+    /// Free where every method or a single one is compiled in (the identity,
+    /// or a constant).
+    #[inline(always)]
+    #[must_use]
+    pub(crate) const fn compiled_or_default(self) -> Method {
+        if self.is_compiled() {
+            self
+        } else {
+            Method::DEFAULT
+        }
+    }
+
     /// The scene-file name: `"qr"`, `"polar"`, `"linear"` or `"qr-rest-b"`.
     #[must_use]
     pub const fn name(self) -> &'static str {
         match self {
-            #[cfg(feature = "qr")]
             Method::Qr => "qr",
-            #[cfg(feature = "polar")]
             Method::Polar => "polar",
-            #[cfg(feature = "linear")]
             Method::Linear => "linear",
-            #[cfg(feature = "qr-rest-b")]
             Method::QrRestB => "qr-rest-b",
         }
     }
 
-    /// The method with this scene-file name, if it is compiled in.
+    /// The cargo feature of `corofem` that compiles the method in: its
+    /// [`name`](Method::name).
+    #[must_use]
+    pub const fn feature(self) -> &'static str {
+        self.name()
+    }
+
+    /// The method with this scene-file name, compiled in or not (check
+    /// [`Method::is_compiled`], or let the scene refuse it).
     #[must_use]
     pub fn from_name(name: &str) -> Option<Method> {
-        Method::ALL.iter().copied().find(|m| m.name() == name)
+        Method::VARIANTS.into_iter().find(|m| m.name() == name)
     }
 }
 
@@ -196,7 +236,11 @@ pub(crate) fn forces(
 ) -> ElementForces {
     let lame = el.lame(per_young);
     let cur = current_edges(rest, du);
-    match method {
+    // A scene never holds a method that is not compiled in (`Settings::validate`
+    // refuses it), and the step must not panic all the same: such a method
+    // is mapped to the default one, which costs nothing where every method
+    // or a single one is compiled in.
+    match method.compiled_or_default() {
         #[cfg(feature = "qr")]
         Method::Qr => qr::forces::<true>(cur[0], cur[1], cur[2], &el.rest, lame),
         #[cfg(feature = "qr-rest-b")]
@@ -205,6 +249,10 @@ pub(crate) fn forces(
         Method::Polar => polar::forces(&cur, rest, &el.rest_grad, lame, &mut el.rot),
         #[cfg(feature = "linear")]
         Method::Linear => linear::forces(du, &cur, &el.rest_grad, lame),
+        // Unreachable: `compiled_or_default` returns a compiled method, and
+        // `Method::DEFAULT` is one. Recursing with it ends at its own arm.
+        #[allow(unreachable_patterns)] // every method compiled in
+        _ => forces(Method::DEFAULT, el, per_young, rest, du),
     }
 }
 
@@ -258,7 +306,7 @@ mod tests {
         ];
         let kd = hform::stiffness_product(&d, &el.grad, lame);
         let eps = 1e-3f32;
-        for &m in Method::ALL {
+        for &m in Method::COMPILED {
             let f_at = |s: f32| {
                 let du = [
                     scale(sub(d[1], d[0]), s),
@@ -280,5 +328,18 @@ mod tests {
                 }
             }
         }
+    }
+
+    #[test]
+    fn every_name_is_recognised_and_the_default_is_compiled() {
+        for m in Method::VARIANTS {
+            assert_eq!(Method::from_name(m.name()), Some(m));
+            assert_eq!(m.is_compiled(), Method::COMPILED.contains(&m));
+            assert!(m.compiled_or_default().is_compiled());
+        }
+        assert_eq!(Method::from_name("sofa"), None);
+        assert!(Method::DEFAULT.is_compiled());
+        // An all-zero `Settings` holds `Qr` (see `scene::Header`).
+        assert_eq!(Method::Qr as u8, 0);
     }
 }

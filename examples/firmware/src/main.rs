@@ -18,9 +18,7 @@ mod host;
 mod logger;
 mod measure;
 
-use corofem::{
-    element_blocks, BoxMesh, ElementBlock, Node, NodeEntry, NodeWork, Scene, SliceStorage, Vec3,
-};
+use corofem::{element_blocks, BoxMesh, StaticScene, Vec3};
 use corofem_test_scenes::firmware as scene;
 use cortex_m_rt::entry;
 use cortex_m_semihosting::debug::{self, EXIT_FAILURE, EXIT_SUCCESS};
@@ -45,22 +43,16 @@ const G: usize = scene::grabbed_nodes(CELLS);
 /// step into its element/node passes and its CG iterations.
 const SPLIT_STEPS: u32 = 20;
 
-/// The scene over storage in statics.
-type FwScene = Scene<SliceStorage<'static>>;
+/// The scene, with exactly the mesh's capacity.
+type FwScene = StaticScene<N, B, G>;
 
 #[entry]
 fn main() -> ! {
-    // The scene's storage: fixed-capacity statics, which cortex-m-rt hands
-    // over as `&'static mut`. Their initial values are all zero bits, so
-    // they go to .bss and cost no flash. (A `static StaticScene` would work
-    // too, but its header holds the default settings, which are not zero,
-    // so the whole scene would go to .data and be copied from flash.)
-    static mut NODES: [Node; N] = [Node::EMPTY; N];
-    static mut WORK: [NodeWork; N] = [NodeWork::EMPTY; N];
-    static mut ELEMS: [ElementBlock; B] = [ElementBlock::EMPTY; B];
-    static mut GRABS: [NodeEntry; G] = [NodeEntry::EMPTY; G];
-    let mut scene = Scene::with_storage(SliceStorage::new(NODES, WORK, ELEMS).with_grabs(GRABS));
-    let ok = run(&mut scene);
+    // The scene in a static, which cortex-m-rt hands over as `&'static mut`.
+    // An empty scene is all zero bits, so it goes to .bss and costs no
+    // flash (.ci/firmware.sh checks that .data stays small).
+    static mut SCENE: FwScene = FwScene::new();
+    let ok = run(SCENE);
     debug::exit(if ok { EXIT_SUCCESS } else { EXIT_FAILURE });
     #[allow(clippy::empty_loop)]
     loop {}
@@ -241,7 +233,7 @@ fn report(
             "libm"
         })
         .str(" product=")
-        .str(if cfg!(feature = "fpu-product-vmul") {
+        .str(if cfg!(feature = "_fpu-product-vmul") {
             "asm-vmul"
         } else if cfg!(feature = "fpu-product") {
             "asm-vmla"

@@ -2,7 +2,7 @@
 //! (numbers in, numbers out; no bindings generator), driven by `www/app.js`.
 //!
 //! Memory: the body's size is known only at run time (a user's file), so the
-//! scene's slots are `Vec`s (see [`demo::VecStorage`]); the core itself stays
+//! scene's slots are `Vec`s (`corofem::VecScene`); the core itself stays
 //! `no_std` and allocation-free. Data the page reads every frame (positions,
 //! surface triangles, statistics) stay in this module's memory and are read
 //! through typed-array views at the pointers the exports return.
@@ -298,7 +298,7 @@ pub extern "C" fn cf_step(substeps: u32) -> u32 {
 fn spin(app: &App) -> [f32; 3] {
     let s = app.scene();
     let (mut m, mut c) = (0.0f32, [0.0f32; 3]);
-    for i in 0..s.node_count() {
+    for i in 0..s.node_count() as u32 {
         if let (Some(mi), Some(x)) = (s.mass(i), s.position(i)) {
             m += mi;
             c = [c[0] + mi * x[0], c[1] + mi * x[1], c[2] + mi * x[2]];

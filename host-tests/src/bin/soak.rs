@@ -25,7 +25,9 @@ fn main() {
     let check_every = num(1, 100_000);
     let seed = num(2, 2005);
     let method = args.get(3).map_or(corofem::Method::Qr, |m| {
-        corofem::Method::from_name(m).expect("qr, polar, linear or qr-rest-b")
+        corofem::Method::from_name(m)
+            .filter(|m| m.is_compiled())
+            .expect("qr, polar, linear or qr-rest-b")
     });
     let Some(liver) = reliability::liver() else {
         eprintln!("SKIPPED: ../shared/meshes not found");

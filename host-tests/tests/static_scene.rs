@@ -1,0 +1,45 @@
+//! A scene in a `static`: `StaticScene::new` is a `const fn` whose value is
+//! all zero bits, so that on a microcontroller the scene lands in `.bss`
+//! and costs no flash (`.ci/firmware.sh` checks the firmware's sections).
+//! Its settings read as the defaults until set, and it steps with them.
+
+use std::sync::Mutex;
+
+use corofem::{Settings, StaticScene};
+use corofem_host_tests::build_box;
+
+/// A 2×2×2-cell block (27 nodes, 48 tetrahedra), 4 grab slots.
+type Block = StaticScene<27, { corofem::element_blocks(48) }, 4>;
+
+static SCENE: Mutex<Block> = Mutex::new(Block::new());
+
+/// Builds the block into `s` and holds its face `x = 0`.
+fn build(s: &mut Block) {
+    build_box(s, [0.2, 0.2, 0.2], [2, 2, 2]);
+    let face: Vec<u32> = (0..27)
+        .filter(|&i| s.rest_position(i).is_some_and(|p| p[0] == 0.0))
+        .collect();
+    assert_eq!(face.len(), 9);
+    s.fix_nodes(&face).unwrap();
+}
+
+#[test]
+fn a_static_scene_has_the_default_settings_and_steps_with_them() {
+    let mut scene = SCENE.lock().unwrap();
+    assert_eq!(*scene.settings(), Settings::default());
+    build(&mut scene);
+    assert_eq!(*scene.settings(), Settings::default());
+
+    let mut given = Box::new(Block::new());
+    build(&mut given);
+    given.set_settings(Settings::default()).unwrap();
+    for _ in 0..10 {
+        scene.step().unwrap();
+        given.step().unwrap();
+    }
+    assert_eq!(scene.state_hash(), given.state_hash());
+    assert_eq!(scene.time(), given.time());
+    assert!(scene.time() > 0.0);
+    // The body sagged: the steps used a non-zero time step and gravity.
+    assert!(scene.displacement(26).unwrap()[2] < 0.0);
+}
