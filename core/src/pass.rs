@@ -415,24 +415,21 @@ impl<B: Backend, S: Sink> ForcePass<'_, B, S> {
         blk: &mut ElementBlock,
         lanes: usize,
     ) {
-        if lanes < LANES {
-            self.one_by_one::<WITH_KV, COMMIT>(blk, lanes);
-            return;
-        }
+        let whole = LANES > 1 && lanes == LANES;
         match self.method {
             #[cfg(feature = "qr")]
-            Method::Qr if LANES > 1 => self.lanes::<QrLanes<true>, WITH_KV, COMMIT>(blk),
+            Method::Qr if whole => self.lanes::<QrLanes<true>, WITH_KV, COMMIT>(blk),
             #[cfg(feature = "qr-rest-b")]
-            Method::QrRestB if LANES > 1 => self.lanes::<QrLanes<false>, WITH_KV, COMMIT>(blk),
+            Method::QrRestB if whole => self.lanes::<QrLanes<false>, WITH_KV, COMMIT>(blk),
             #[cfg(feature = "linear")]
-            Method::Linear if LANES > 1 => self.lanes::<LinearLanes, WITH_KV, COMMIT>(blk),
+            Method::Linear if whole => self.lanes::<LinearLanes, WITH_KV, COMMIT>(blk),
             #[cfg(feature = "polar")]
-            Method::Polar if LANES > 1 => self.lanes::<PolarLanes, WITH_KV, COMMIT>(blk),
+            Method::Polar if whole => self.lanes::<PolarLanes, WITH_KV, COMMIT>(blk),
             // One lane per block (a Cortex-M4F), or a method not compiled
             // in (refused by `set_settings`, so never reached): one element
             // at a time, which handles every method.
             #[allow(unreachable_patterns)]
-            _ => self.one_by_one::<WITH_KV, COMMIT>(blk, lanes),
+            _ => self.one_by_one::<WITH_KV, COMMIT>(self.method, blk, 0..lanes),
         }
     }
 
@@ -453,35 +450,26 @@ impl<B: Backend, S: Sink> ForcePass<'_, B, S> {
         );
     }
 
-    /// The first `lanes` elements of a block, one at a time (every method;
-    /// all of them on targets with one lane).
+    /// The elements in `lanes` of a block, one at a time with `method`
+    /// (every method; all elements on targets with one lane), each from its
+    /// nodes (skipped if a node index is out of range).
     #[inline(always)]
     fn one_by_one<const WITH_KV: bool, const COMMIT: bool>(
         &mut self,
-        blk: &mut ElementBlock,
-        lanes: usize,
-    ) {
-        for j in 0..lanes {
-            self.one::<WITH_KV, COMMIT>(self.method, blk, j);
-        }
-    }
-
-    /// Element `j` of a block alone with `method`, from its nodes (skipped
-    /// if a node index is out of range).
-    #[inline(always)]
-    fn one<const WITH_KV: bool, const COMMIT: bool>(
-        &mut self,
         method: Method,
         blk: &mut ElementBlock,
-        j: usize,
+        lanes: core::ops::Range<usize>,
     ) {
-        let Some(n) = gather(self.nodes, blk.nodes(j)) else {
-            return;
-        };
-        let rest = diffs(&[n[0].x0, n[1].x0, n[2].x0, n[3].x0]);
-        let du = diffs(&[n[0].u, n[1].u, n[2].u, n[3].u]);
-        let vel = || [n[0].v, n[1].v, n[2].v, n[3].v];
-        self.alone::<WITH_KV, COMMIT>(method, blk, j, &rest, &du, vel);
+        let nodes = self.nodes;
+        for j in lanes {
+            let Some(n) = gather(nodes, blk.nodes(j)) else {
+                continue;
+            };
+            let rest = diffs(&[n[0].x0, n[1].x0, n[2].x0, n[3].x0]);
+            let du = diffs(&[n[0].u, n[1].u, n[2].u, n[3].u]);
+            let vel = || [n[0].v, n[1].v, n[2].v, n[3].v];
+            self.alone::<WITH_KV, COMMIT>(method, blk, j, &rest, &du, vel);
+        }
     }
 
     /// Element `j` of a block alone with `method`, from its rest edges,
@@ -531,7 +519,7 @@ impl<B: Backend, S: Sink> ForcePass<'_, B, S> {
         let Some((at, lame, out)) = self.kernel::<K>(blk) else {
             // A node index out of range (impossible after `build`): the
             // elements that have all their nodes, alone.
-            self.one_by_one::<WITH_KV, COMMIT>(blk, LANES);
+            self.one_by_one::<WITH_KV, COMMIT>(self.method, blk, 0..LANES);
             return;
         };
         // Only this test reads the flags here: the lane-by-lane finish
@@ -605,7 +593,7 @@ impl<B: Backend, S: Sink> ForcePass<'_, B, S> {
     ) {
         let (b, nodes) = (self.b, self.nodes);
         let Some((at, lame, out)) = self.kernel::<K>(blk) else {
-            self.one_by_one::<WITH_KV, COMMIT>(blk, LANES);
+            self.one_by_one::<WITH_KV, COMMIT>(self.method, blk, 0..LANES);
             return;
         };
         let kv = if WITH_KV {
@@ -615,7 +603,7 @@ impl<B: Backend, S: Sink> ForcePass<'_, B, S> {
         };
         for j in 0..LANES {
             if !out.regular.get(j).copied().unwrap_or(false) {
-                self.one::<WITH_KV, COMMIT>(K::METHOD, blk, j);
+                self.one_by_one::<WITH_KV, COMMIT>(K::METHOD, blk, j..j + 1);
                 continue;
             }
             let lane = |v: Batch| v.0.get(j).copied().unwrap_or(0.0);
