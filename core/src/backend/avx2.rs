@@ -35,6 +35,26 @@ impl Avx2 {
     }
 }
 
+impl Avx2 {
+    /// `nodes[k][j] · size` for every corner `k` and lane `j`: widened to
+    /// 32 bits and multiplied in vector registers (written as scalars, LLVM
+    /// made it 32 scalar multiplications in the force pass).
+    #[inline(always)]
+    pub(crate) fn offsets(self, nodes: &[[u16; LANES]; 4], size: u32) -> [[u32; LANES]; 4] {
+        let mut offsets = [[0; LANES]; 4];
+        // SAFETY: `c` and `o` are 16 and 32 bytes (8 `u16`, 8 `u32`);
+        // `self` proves AVX2.
+        unsafe {
+            let size = _mm256_set1_epi32(size as i32);
+            for (o, c) in offsets.iter_mut().zip(nodes) {
+                let ids = _mm256_cvtepu16_epi32(_mm_loadu_si128(c.as_ptr().cast()));
+                _mm256_storeu_si256(o.as_mut_ptr().cast(), _mm256_mullo_epi32(ids, size));
+            }
+        }
+        offsets
+    }
+}
+
 impl Backend for Avx2 {
     type Chunk = Batch;
     const CHUNKS: usize = 1;
@@ -46,22 +66,7 @@ impl Backend for Avx2 {
             ids,
             len,
             #[inline(always)]
-            |ids, size| {
-                let mut offsets = [[0; LANES]; 4];
-                // Widened to 32 bits and multiplied in vector registers (written
-                // as scalars, LLVM made it 32 scalar multiplications in the force
-                // pass).
-                // SAFETY: `c` and `o` are 16 and 32 bytes (8 `u16`, 8 `u32`);
-                // `self` proves AVX2.
-                unsafe {
-                    let size = _mm256_set1_epi32(size as i32);
-                    for (o, c) in offsets.iter_mut().zip(ids) {
-                        let ids = _mm256_cvtepu16_epi32(_mm_loadu_si128(c.as_ptr().cast()));
-                        _mm256_storeu_si256(o.as_mut_ptr().cast(), _mm256_mullo_epi32(ids, size));
-                    }
-                }
-                offsets
-            },
+            |ids, size| self.offsets(ids, size),
         )
     }
 

@@ -388,7 +388,12 @@ fn avx2_supported() -> bool {
     {
         true
     }
-    #[cfg(all(target_arch = "x86_64", not(target_feature = "avx2"), feature = "std"))]
+    // (The unit tests detect it too, so that they compare every backend.)
+    #[cfg(all(
+        target_arch = "x86_64",
+        not(target_feature = "avx2"),
+        any(feature = "std", test)
+    ))]
     {
         use core::sync::atomic::{AtomicU8, Ordering};
         // 0: not asked yet, 1: no, 2: yes. Relaxed: any thread that asks
@@ -403,7 +408,10 @@ fn avx2_supported() -> bool {
             v => v == 2,
         }
     }
-    #[cfg(not(all(target_arch = "x86_64", any(target_feature = "avx2", feature = "std"))))]
+    #[cfg(not(all(
+        target_arch = "x86_64",
+        any(target_feature = "avx2", feature = "std", test)
+    )))]
     {
         false
     }

@@ -173,3 +173,33 @@ pub(crate) fn scatter<R: Row, const N: usize>(
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::backend::{sse2, Avx2};
+    use crate::lanes::LANES;
+
+    /// The node offsets of both instruction sets are `index · size` for
+    /// every `u16` index, the largest included (SSE2 forms them from 16-bit
+    /// halves, where an index ≥ 2¹⁵ would go wrong with a signed multiply).
+    #[test]
+    fn offsets_are_index_times_size_for_every_u16() {
+        let mut nodes = [[0u16; LANES]; 4];
+        let picks: [u16; 11] = [
+            0, 1, 2, 255, 256, 4_095, 32_767, 32_768, 40_000, 65_534, 65_535,
+        ];
+        for (n, id) in nodes.iter_mut().flatten().enumerate() {
+            *id = picks[n % picks.len()].wrapping_add((n / picks.len()) as u16 * 7);
+        }
+        let avx2 = Avx2::new();
+        // On a CPU with AVX2 (this machine, CI) both must be checked.
+        assert_eq!(avx2.is_some(), std::is_x86_feature_detected!("avx2"));
+        for size in [4, 44, 52, 1023] {
+            let expect = nodes.map(|c| c.map(|i| u32::from(i) * size));
+            assert_eq!(sse2::offsets(&nodes, size), expect);
+            if let Some(avx2) = avx2 {
+                assert_eq!(avx2.offsets(&nodes, size), expect);
+            }
+        }
+    }
+}
