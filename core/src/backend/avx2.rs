@@ -14,7 +14,7 @@ use core::arch::x86_64::{
 };
 use core::mem::transmute;
 
-use super::rows::{opaque, scatter, Corners};
+use super::rows::{opaque, scatter_lanes, Corners};
 use super::{Backend, Row};
 use crate::element::Batch;
 use crate::lanes::{Lanes, LANES};
@@ -105,16 +105,14 @@ impl Backend for Avx2 {
 
     #[inline(always)]
     fn scatter<R: Row>(self, slots: &mut [R::Slot], c: &Corners<R::Slot>, v: &[[Batch; 3]; 4]) {
-        // SAFETY: `self` proves AVX2.
-        let r = unsafe {
-            [
-                to_rows(&v[0]),
-                to_rows(&v[1]),
-                to_rows(&v[2]),
-                to_rows(&v[3]),
-            ]
-        };
-        scatter::<R, LANES>(slots, c, 0, &r);
+        scatter_lanes::<R>(
+            slots,
+            c,
+            v,
+            // SAFETY: `self` proves AVX2.
+            #[inline(always)]
+            |v| unsafe { to_rows(v) },
+        );
     }
 
     #[inline(always)]

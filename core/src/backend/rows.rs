@@ -29,6 +29,7 @@ use core::marker::PhantomData;
 use core::mem::size_of;
 
 use super::Row;
+use crate::element::Batch;
 use crate::lanes::LANES;
 
 const _: () = assert!(LANES == 8, "the row moves fill 8 lanes");
@@ -172,6 +173,24 @@ pub(crate) fn scatter<R: Row, const N: usize>(
             }
         }
     }
+}
+
+/// [`scatter`] of the four corners' values `v` (lanes), each turned into
+/// eight rows by the instruction set's `to_rows`.
+#[inline(always)]
+pub(crate) fn scatter_lanes<R: Row>(
+    slots: &mut [R::Slot],
+    corners: &Corners<R::Slot>,
+    v: &[[Batch; 3]; 4],
+    to_rows: impl Fn(&[Batch; 3]) -> [__m128; LANES],
+) {
+    let r = [
+        to_rows(&v[0]),
+        to_rows(&v[1]),
+        to_rows(&v[2]),
+        to_rows(&v[3]),
+    ];
+    scatter::<R, LANES>(slots, corners, 0, &r);
 }
 
 #[cfg(test)]

@@ -17,7 +17,7 @@ use core::arch::x86_64::{
 };
 use core::mem::transmute;
 
-use super::rows::{opaque, scatter, Corners};
+use super::rows::{opaque, scatter, scatter_lanes, Corners};
 use super::{Backend, Row};
 use crate::element::Batch;
 use crate::lanes::{Lanes, LANES};
@@ -57,13 +57,7 @@ impl Backend for Sse2 {
 
     #[inline(always)]
     fn scatter<R: Row>(self, slots: &mut [R::Slot], c: &Corners<R::Slot>, v: &[[Batch; 3]; 4]) {
-        let r = [
-            to_rows(&v[0]),
-            to_rows(&v[1]),
-            to_rows(&v[2]),
-            to_rows(&v[3]),
-        ];
-        scatter::<R, LANES>(slots, c, 0, &r);
+        scatter_lanes::<R>(slots, c, v, to_rows);
     }
 
     #[inline(always)]
