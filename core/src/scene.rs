@@ -473,7 +473,7 @@ impl<S: Storage> Scene<S> {
         #[cfg(feature = "polar")]
         if settings.method == Method::Polar && self.settings().method != Method::Polar {
             for block in self.view().elems.iter_mut() {
-                block.rot = ElementBlock::EMPTY.rot;
+                block.rot = ElementBlock::POLAR_START;
             }
         }
         self.hdr.settings = settings;

@@ -56,15 +56,23 @@ impl ElementBlock {
             grad: [[zero; 3]; 3],
             #[cfg(any(feature = "polar", feature = "linear"))]
             rest_grad: [[zero; 3]; 3],
+            // Zeros, not the identity, so that an empty scene is all zero
+            // bits (a `static` in `.bss`): `Scene::build` and switching to
+            // `Polar` start every element's rotation at the identity
+            // (`POLAR_START`), and only used lanes are ever computed.
             #[cfg(feature = "polar")]
-            rot: [
-                Lanes([super::polar::IDENTITY[0]; LANES]),
-                Lanes([super::polar::IDENTITY[1]; LANES]),
-                Lanes([super::polar::IDENTITY[2]; LANES]),
-                Lanes([super::polar::IDENTITY[3]; LANES]),
-            ],
+            rot: [zero; 4],
         }
     };
+
+    /// Every lane's polar rotation at the identity: where `Polar` starts.
+    #[cfg(feature = "polar")]
+    pub(crate) const POLAR_START: [Batch; 4] = [
+        Lanes([super::polar::IDENTITY[0]; LANES]),
+        Lanes([super::polar::IDENTITY[1]; LANES]),
+        Lanes([super::polar::IDENTITY[2]; LANES]),
+        Lanes([super::polar::IDENTITY[3]; LANES]),
+    ];
 
     /// Node indices of lane `j` (zeros if `j ≥ LANES`).
     #[inline(always)]
@@ -221,7 +229,23 @@ fn put3(dst: &mut [[Batch; 3]; 3], j: usize, v: &[Vec3; 3]) {
 
 #[cfg(test)]
 mod tests {
-    use super::slot;
+    use super::{slot, Batch, ElementBlock};
+
+    /// An unused block is all zero bits in every build (the polar
+    /// rotations included), so that a `static` scene lands in `.bss`.
+    #[test]
+    fn an_empty_block_is_all_zero_bits() {
+        let b = ElementBlock::EMPTY;
+        assert!(b.nodes.iter().flatten().all(|&i| i == 0));
+        let mut values: std::vec::Vec<&Batch> = b.rest.iter().collect();
+        values.push(&b.stiffness);
+        values.extend(b.grad.iter().flatten());
+        #[cfg(any(feature = "polar", feature = "linear"))]
+        values.extend(b.rest_grad.iter().flatten());
+        #[cfg(feature = "polar")]
+        values.extend(b.rot.iter());
+        assert!(values.iter().all(|v| v.0.iter().all(|x| x.to_bits() == 0)));
+    }
 
     /// Counts from 0 to 1 100 (whole groups, a partial last group, a tail,
     /// fewer than eight elements): `slot` is a bijection of `0..count`, and

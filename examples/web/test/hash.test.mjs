@@ -47,7 +47,7 @@ test('the exported API builds and steps a body', () => {
   // A bad parameter is refused with a message.
   assert.equal(x.cf_set_params(2e6, 0.7, 0, 0.002, 10, 1), 1);
   const msg = new TextDecoder().decode(new Uint8Array(x.memory.buffer, x.cf_message_ptr(), x.cf_message_len()));
-  assert.match(msg, /poisson/);
+  assert.match(msg, /Poisson's ratio/);
 });
 
 test('time per step in Node (the beam, default settings)', () => {
