@@ -2,7 +2,7 @@
 //! f32 core and the f64 reference.
 
 use corofem::VecScene;
-use corofem::{BoxMesh, BuildOptions, Material, Method, Settings};
+use corofem::{BoxMesh, BuildOptions, Material, Method, Preconditioner, Settings};
 use corofem_io::{read_mesh, to_core};
 use std::path::Path;
 
@@ -142,8 +142,21 @@ impl SceneDef {
         }
     }
 
-    /// A built core scene with these settings' method, dt and CG budget.
+    /// A built core scene with these settings' method, dt and CG budget,
+    /// and the default preconditioner (with its warm start).
     pub fn core(&self, method: Method, dt: f32, cg_iterations: u32) -> VecScene {
+        self.core_with(method, dt, cg_iterations, Preconditioner::DEFAULT)
+    }
+
+    /// The same with the preconditioner `pre`, warm-started unless it is the
+    /// lumped mass (the paper's CG, from zero).
+    pub fn core_with(
+        &self,
+        method: Method,
+        dt: f32,
+        cg_iterations: u32,
+        pre: Preconditioner,
+    ) -> VecScene {
         let mut scene = VecScene::with_capacity(self.nodes.len(), self.tets.len());
         scene
             .build(
@@ -162,7 +175,8 @@ impl SceneDef {
                 cg_tolerance: 0.0,
                 rayleigh_mass: self.rayleigh_mass,
                 rayleigh_stiffness: self.rayleigh_stiffness,
-                warm_start: false,
+                warm_start: pre != Preconditioner::Mass,
+                preconditioner: pre,
                 gravity: self.gravity,
             })
             .expect("settings");

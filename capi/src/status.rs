@@ -121,6 +121,7 @@ impl From<Error> for Failure {
             Error::InvalidParameter { .. } => (Status::InvalidArgument, None),
             Error::MethodNotCompiled { .. } => (Status::Unsupported, None),
             Error::UnsupportedInstructionSet { .. } => (Status::Unsupported, None),
+            Error::PreconditionerUnavailable { .. } => (Status::Unsupported, None),
             Error::NotBuilt => (Status::NotBuilt, None),
             // The static solve is not part of the C API.
             Error::Unconstrained => (Status::InvalidArgument, None),

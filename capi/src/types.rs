@@ -104,6 +104,7 @@ impl Settings {
             rayleigh_mass: self.rayleigh_mass,
             rayleigh_stiffness: self.rayleigh_stiffness,
             warm_start: self.warm_start != 0,
+            preconditioner: corofem_core::Preconditioner::DEFAULT,
             gravity: self.gravity,
         })
     }

@@ -61,7 +61,12 @@ const RUN_HELP: &str = "\
 Scene keys beyond SCENE_FORMAT.md:
   [mesh]   reorient = true          swap nodes of negatively oriented tets instead of
                                     rejecting the mesh (default false)
-  [solver] warm_start = true        start CG from the previous step's solution (default false)
+  [solver] warm_start = true        start CG from the previous step's solution, scaled to the
+                                    multiple that starts the solve best (default false)
+  [solver] preconditioner = \"mass\"  what preconditions CG: \"mass\" (the lumped mass, the
+                                    paper's CG; the default), \"block-jacobi\" (3x3 node blocks
+                                    of the system matrix) or \"two-level\" (node blocks plus
+                                    rigid-body modes of node aggregates, turned with the body)
   [solver] newton_iterations = 30   static solve: most Newton iterations
   [solver] newton_tolerance = 1e-5  static solve: out-of-balance force / load to stop at
 Defaults: [material] young 1e6, poisson 0.3, density 1000; [solver] method \"qr\",

@@ -9,7 +9,7 @@
 use std::fmt::{self, Display};
 use std::path::{Path, PathBuf};
 
-use corofem::{BoxMesh, Material, Method, Plane, Settings, StaticSettings};
+use corofem::{BoxMesh, Material, Method, Plane, Preconditioner, Settings, StaticSettings};
 use serde::Deserialize;
 
 use crate::error::{CliError, CliResult};
@@ -76,6 +76,7 @@ struct RawSolver {
     #[serde(rename = "static")]
     static_solve: Option<bool>,
     warm_start: Option<bool>,
+    preconditioner: Option<String>,
     newton_iterations: Option<i64>,
     newton_tolerance: Option<f64>,
 }
@@ -795,6 +796,22 @@ impl Ctx<'_> {
             rayleigh_mass,
             rayleigh_stiffness,
             warm_start: s.warm_start.unwrap_or(d.warm_start),
+            preconditioner: match &s.preconditioner {
+                None => d.preconditioner,
+                Some(name) => Preconditioner::from_name(name).ok_or_else(|| {
+                    self.bad(
+                        "[solver]",
+                        "preconditioner",
+                        format!("{name:?}"),
+                        format!(
+                            "one of {}",
+                            Preconditioner::VARIANTS
+                                .map(|p| format!("{:?}", p.name()))
+                                .join(", ")
+                        ),
+                    )
+                })?,
+            },
             gravity,
         };
         let static_solve = if is_static {

@@ -14,7 +14,7 @@
 //! its constrained components are the constraint forces, which the ground
 //! uses to release nodes.
 
-use crate::math::{axpy, dot, scale, sqrt, sub, Vec3};
+use crate::math::{axpy, dot, scale, sqrt, Vec3};
 use crate::storage::NodeWork;
 
 /// What a CG solve did.
@@ -39,18 +39,31 @@ const FLOOR: f32 = f32::EPSILON * f32::EPSILON;
 /// filter `S` of a node; `apply(work)` finds every `work.q` zero, must set it
 /// to `A work.d`, and returns `dᵀq = Σ dᵢ·qᵢ` summed in node order.
 ///
+/// With `scale_guess`, a guess `x₀` is first replaced by `γ x₀` with
+/// `γ = bᵀx₀ / x₀ᵀAx₀`, the multiple that minimises the energy norm of the
+/// error `½ xᵀAx − bᵀx` along `x₀` (≤ 0, the value of no guess): a guess
+/// never starts the solve worse than zero, and CG only lowers that norm.
+/// (Not for guesses that prescribe constrained components.)
+///
+/// The preconditioner is `project(i, inv_pᵢ rᵢ)` node by node, fused into
+/// the update loop, or with `whole`, a pass that sets every `q` to the
+/// preconditioned residual `z` and returns `rᵀz` summed in node order.
+///
 /// Loops are fused where the order of operations allows it, so the result
 /// has the bits of the plain algorithm: `dᵀq` is summed inside `apply`'s
 /// node loop, and `q` is zeroed for the next product in the loop that updates
 /// `d`: two passes over the nodes fewer per iteration (on a Cortex-M4F, 1 746
 /// → 1 727 instructions per tetrahedron-step, docs/firmware.md).
 #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
+#[allow(clippy::too_many_arguments)] // the step's state, passed apart so that each borrow stays narrow
 pub(crate) fn solve(
     work: &mut [NodeWork],
     max_iterations: u32,
     tolerance: f32,
     from_guess: bool,
+    scale_guess: bool,
     project: impl Fn(usize, Vec3) -> Vec3,
+    mut whole: Option<impl FnMut(&mut [NodeWork]) -> f32>,
     mut apply: impl FnMut(&mut [NodeWork]) -> f32,
 ) -> CgOutcome {
     if from_guess {
@@ -59,17 +72,44 @@ pub(crate) fn solve(
             w.d = w.x;
             w.q = [0.0; 3];
         }
-        apply(work);
-        for w in work.iter_mut() {
-            w.r = sub(w.r, w.q);
+        let xax = apply(work);
+        let mut gamma = 1.0f32;
+        if scale_guess {
+            let bx = work.iter().fold(0.0f32, |s, w| s + dot(w.r, w.x));
+            gamma = bx / xax;
+            if !(xax > 0.0 && gamma.is_finite()) {
+                gamma = 0.0;
+            }
+        }
+        if gamma == 0.0 {
+            // No multiple of the guess helps (or it overflowed, a leftover
+            // of a refused step): start from zero, without touching r.
+            for w in work.iter_mut() {
+                w.x = [0.0; 3];
+            }
+        } else {
+            for w in work.iter_mut() {
+                if scale_guess {
+                    w.x = scale(w.x, gamma);
+                }
+                w.r = axpy(w.r, -gamma, w.q);
+            }
         }
     }
     let mut rz = 0.0f32;
-    for (i, w) in work.iter_mut().enumerate() {
-        let z = project(i, scale(w.r, w.inv_p));
-        w.d = z;
-        w.q = [0.0; 3];
-        rz += dot(w.r, z);
+    if let Some(pre) = whole.as_mut() {
+        rz = pre(work);
+        for w in work.iter_mut() {
+            w.d = w.q;
+            w.q = [0.0; 3];
+        }
+    } else {
+        for (i, w) in work.iter_mut().enumerate() {
+            let z = project(i, scale(w.r, w.inv_p));
+            w.d = z;
+            w.q = [0.0; 3];
+            rz += dot(w.r, z);
+        }
     }
     let rz0 = rz;
     if !rz0.is_finite() {
@@ -99,12 +139,20 @@ pub(crate) fn solve(
         }
         let alpha = rz / dq;
         let mut rz_new = 0.0f32;
-        for (i, w) in work.iter_mut().enumerate() {
-            w.x = axpy(w.x, alpha, w.d);
-            w.r = axpy(w.r, -alpha, w.q);
-            let z = project(i, scale(w.r, w.inv_p));
-            w.q = z;
-            rz_new += dot(w.r, z);
+        if let Some(pre) = whole.as_mut() {
+            for w in work.iter_mut() {
+                w.x = axpy(w.x, alpha, w.d);
+                w.r = axpy(w.r, -alpha, w.q);
+            }
+            rz_new = pre(work);
+        } else {
+            for (i, w) in work.iter_mut().enumerate() {
+                w.x = axpy(w.x, alpha, w.d);
+                w.r = axpy(w.r, -alpha, w.q);
+                let z = project(i, scale(w.r, w.inv_p));
+                w.q = z;
+                rz_new += dot(w.r, z);
+            }
         }
         iterations += 1;
         let beta = rz_new / rz;

@@ -107,6 +107,14 @@ pub enum Error {
         /// The instruction set asked for.
         instruction_set: crate::InstructionSet,
     },
+    /// The preconditioner is not compiled into this build (feature
+    /// `two-level`), or the storage has no room for its data: one
+    /// [`NodeBlock`](crate::NodeBlock) per node for `BlockJacobi` and
+    /// `TwoLevel`, and at least one aggregate for `TwoLevel`.
+    PreconditionerUnavailable {
+        /// The preconditioner asked for.
+        preconditioner: crate::Preconditioner,
+    },
     /// The operation needs a built scene.
     NotBuilt,
     /// A static solve needs something that holds the body: fixed nodes or the tool.
@@ -166,6 +174,12 @@ impl fmt::Display for Error {
                 f,
                 "instruction set `{}` is not supported here",
                 instruction_set.name()
+            ),
+            Error::PreconditionerUnavailable { preconditioner } => write!(
+                f,
+                "preconditioner `{}` needs the corofem feature `two-level` and storage for it \
+                 (node blocks for every node; aggregates for `two-level`)",
+                preconditioner.name()
             ),
             Error::NotBuilt => write!(f, "the scene has not been built"),
             Error::Unconstrained => {

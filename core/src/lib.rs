@@ -114,6 +114,8 @@ mod material;
 mod math;
 mod mesh_gen;
 mod pass;
+#[cfg(feature = "two-level")]
+mod precond;
 mod scene;
 mod settings;
 mod step;
@@ -147,10 +149,14 @@ pub use ground::Plane;
 pub use material::Material;
 pub use math::Vec3;
 pub use mesh_gen::BoxMesh;
+#[cfg(feature = "two-level")]
+pub use precond::{
+    aggregates_for, Aggregate, CoarseBlock, NodeBlock, MAX_AGGREGATES, NODES_PER_AGGREGATE,
+};
 #[cfg(feature = "alloc")]
 pub use scene::VecScene;
 pub use scene::{BuildOptions, Scene, StaticScene};
-pub use settings::{Settings, StepStats};
+pub use settings::{Preconditioner, Settings, StepStats};
 #[cfg(feature = "statics")]
 pub use statics::{NewtonStats, StaticSettings};
 #[cfg(feature = "alloc")]

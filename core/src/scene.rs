@@ -7,7 +7,7 @@ use crate::material::{
     element_stiffness, lame, lame_per_young, validate_poisson, validate_young, Material,
 };
 use crate::math::{add, det3, is_finite3, sub, Vec3};
-use crate::settings::{Settings, StepStats};
+use crate::settings::{Preconditioner, Settings, StepStats};
 use crate::storage::{ArrayStorage, Node, NodeWork, PartsMut, Storage, FIXED};
 use crate::InstructionSet;
 
@@ -60,6 +60,14 @@ pub(crate) struct Header {
     pub(crate) n_loads: usize,
     /// The instruction set asked for ([`Scene::set_instruction_set`]).
     pub(crate) isa: IsaChoice,
+    /// Aggregates of the two-level preconditioner in use.
+    #[cfg(feature = "two-level")]
+    pub(crate) n_aggs: usize,
+    /// Whether the preconditioner's aggregates and coarse factor match the
+    /// scene (cleared by whatever changes the rest system matrix; the next
+    /// step prepares them).
+    #[cfg(feature = "two-level")]
+    pub(crate) coarse_ready: bool,
 }
 
 /// The instruction set a scene is asked to step with: `Best` is zero, so
@@ -100,9 +108,19 @@ impl Header {
     /// among them) keeps only the test.
     #[cold]
     #[inline(never)]
-    fn write_default_settings(&mut self) {
-        self.settings = Settings::new();
+    fn write_default_settings(&mut self, defaults: Settings) {
+        self.settings = defaults;
         self.settings_valid = true;
+    }
+
+    /// Forgets the preconditioner's aggregates and coarse factor: the next
+    /// step prepares them again.
+    #[inline(always)]
+    pub(crate) fn invalidate_coarse(&mut self) {
+        #[cfg(feature = "two-level")]
+        {
+            self.coarse_ready = false;
+        }
     }
 
     const EMPTY: Self = Self {
@@ -122,6 +140,10 @@ impl Header {
         #[cfg(feature = "loads")]
         n_loads: 0,
         isa: IsaChoice::Best,
+        #[cfg(feature = "two-level")]
+        n_aggs: 0,
+        #[cfg(feature = "two-level")]
+        coarse_ready: false,
     };
 }
 
@@ -223,6 +245,10 @@ pub(crate) struct View<'a> {
     /// The constant external forces, in node order.
     #[cfg(feature = "loads")]
     pub(crate) loads: &'a mut [crate::storage::NodeEntry],
+    /// The preconditioner's slots: a node block per node (or none), and
+    /// every aggregate and coarse slot of the storage.
+    #[cfg(feature = "two-level")]
+    pub(crate) pre: crate::precond::Parts<'a>,
 }
 
 /// Most nodes a scene holds: what the elements' `u16` node indices address.
@@ -252,7 +278,8 @@ impl<S: Storage> Scene<S> {
     #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
     pub(crate) fn view(&mut self) -> View<'_> {
         if !self.hdr.settings_valid {
-            self.hdr.write_default_settings();
+            let defaults = *self.settings();
+            self.hdr.write_default_settings(defaults);
         }
         let (n, e) = (self.hdr.n_nodes, self.hdr.n_elems);
         #[cfg(feature = "tool")]
@@ -270,7 +297,32 @@ impl<S: Storage> Scene<S> {
             grabs: p.grabs.get_mut(..n_grabs).unwrap_or_default(),
             #[cfg(feature = "loads")]
             loads: p.loads.get_mut(..n_loads).unwrap_or_default(),
+            #[cfg(feature = "two-level")]
+            pre: crate::precond::Parts {
+                blocks: p.blocks.get_mut(..n).unwrap_or_default(),
+                aggs: p.aggs,
+                coarse: p.coarse,
+            },
         }
+    }
+
+    /// Whether this build and the storage can run `pre` (for a scene of as
+    /// many nodes as the storage holds).
+    #[must_use]
+    pub fn supports(&self, pre: Preconditioner) -> bool {
+        if pre == Preconditioner::Mass {
+            return true;
+        }
+        #[cfg(feature = "two-level")]
+        {
+            let nodes = self.store.parts().0.len();
+            let (blocks, aggs, coarse) = self.store.preconditioner_capacity();
+            blocks >= nodes
+                && (pre != Preconditioner::TwoLevel
+                    || (aggs >= 1 && coarse >= aggs.saturating_mul(aggs)))
+        }
+        #[cfg(not(feature = "two-level"))]
+        false
     }
 
     /// Node `i`, if the scene has it.
@@ -432,6 +484,7 @@ impl<S: Storage> Scene<S> {
         self.hdr.time = 0.0;
         self.hdr.inverted = 0;
         self.hdr.any_fixed = false;
+        self.hdr.invalidate_coarse();
         #[cfg(feature = "tool")]
         {
             self.hdr.tool = ToolState::NONE;
@@ -459,10 +512,19 @@ impl<S: Storage> Scene<S> {
     #[must_use]
     pub fn settings(&self) -> &Settings {
         const DEFAULTS: Settings = Settings::new();
+        // The defaults of a storage without room for the default
+        // preconditioner: the lumped mass, without warm start.
+        const MASS: Settings = Settings {
+            preconditioner: Preconditioner::Mass,
+            warm_start: false,
+            ..Settings::new()
+        };
         if self.hdr.settings_valid {
             &self.hdr.settings
-        } else {
+        } else if self.supports(DEFAULTS.preconditioner) {
             &DEFAULTS
+        } else {
+            &MASS
         }
     }
 
@@ -470,6 +532,12 @@ impl<S: Storage> Scene<S> {
     /// polar method restarts its rotations from the identity.
     pub fn set_settings(&mut self, settings: Settings) -> Result<(), Error> {
         settings.validate()?;
+        if !self.supports(settings.preconditioner) {
+            return Err(Error::PreconditionerUnavailable {
+                preconditioner: settings.preconditioner,
+            });
+        }
+        self.hdr.invalidate_coarse();
         #[cfg(feature = "polar")]
         if settings.method == Method::Polar && self.settings().method != Method::Polar {
             for block in self.view().elems.iter_mut() {
@@ -587,6 +655,7 @@ impl<S: Storage> Scene<S> {
         if let Some(block) = self.view().elems.get_mut(b) {
             block.set_stiffness(j, stiffness);
         }
+        self.hdr.invalidate_coarse();
         Ok(())
     }
 
@@ -606,6 +675,7 @@ impl<S: Storage> Scene<S> {
 
     /// Writes Young's modulus `young` (Pa, checked) into every element.
     fn write_young_all(&mut self, young: f32) {
+        self.hdr.invalidate_coarse();
         let v = self.view();
         // Every slot, in storage order (which element is where is no matter).
         for s in 0..v.n_elems {
@@ -626,6 +696,7 @@ impl<S: Storage> Scene<S> {
             });
         }
         self.hdr.poisson = poisson;
+        self.hdr.invalidate_coarse();
         Ok(())
     }
 
@@ -669,6 +740,7 @@ impl<S: Storage> Scene<S> {
                 n.v = [0.0; 3];
             }
         }
+        v.hdr.invalidate_coarse();
         Ok(())
     }
 
@@ -679,6 +751,7 @@ impl<S: Storage> Scene<S> {
             n.flags &= !FIXED;
         }
         v.hdr.any_fixed = false;
+        v.hdr.invalidate_coarse();
     }
 
     /// Sets the constant external force on node `i` (N); a zero force removes
@@ -787,6 +860,7 @@ impl<S: Storage> Scene<S> {
             *w = NodeWork::EMPTY;
         }
         v.hdr.time = 0.0;
+        v.hdr.invalidate_coarse();
     }
 
     /// Advances the scene by one implicit Euler step of `settings().dt`.

@@ -5,6 +5,68 @@ use crate::element::Method;
 use crate::error::{Error, Parameter};
 use crate::math::{is_finite3, Vec3};
 
+/// What preconditions the step's conjugate gradients.
+///
+/// Every variant exists in every build; `BlockJacobi` and `TwoLevel` need
+/// the feature `two-level` and storage for their data, else the scene
+/// refuses them ([`Error::PreconditionerUnavailable`]).
+// `Mass` is 0: an all-zero `Settings` (a `static` scene's header) holds it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Preconditioner {
+    /// The lumped mass (the paper's CG): one scalar per node, nearly free,
+    /// and every iterate keeps the momentum of an isolated body. Blind to
+    /// stiffness: soft or finely meshed bodies need many iterations.
+    Mass = 0,
+    /// The 3×3 node blocks of the system matrix: sees small and sliver
+    /// elements.
+    BlockJacobi = 1,
+    /// Node blocks plus a coarse space of rigid-body modes per aggregate of
+    /// nodes, turned with the body: carries bending and sagging across the
+    /// body in one iteration.
+    TwoLevel = 2,
+}
+
+impl Preconditioner {
+    /// Every preconditioner, in a fixed order.
+    pub const VARIANTS: [Preconditioner; 3] = [
+        Preconditioner::Mass,
+        Preconditioner::BlockJacobi,
+        Preconditioner::TwoLevel,
+    ];
+
+    /// The default: `Mass`, the paper's CG.
+    pub const DEFAULT: Preconditioner = Preconditioner::Mass;
+
+    /// The scene-file name: `"mass"`, `"block-jacobi"` or `"two-level"`.
+    #[must_use]
+    pub const fn name(self) -> &'static str {
+        match self {
+            Preconditioner::Mass => "mass",
+            Preconditioner::BlockJacobi => "block-jacobi",
+            Preconditioner::TwoLevel => "two-level",
+        }
+    }
+
+    /// The preconditioner with this scene-file name.
+    #[must_use]
+    pub fn from_name(name: &str) -> Option<Preconditioner> {
+        Self::VARIANTS.into_iter().find(|p| p.name() == name)
+    }
+
+    /// Whether this build has it.
+    #[must_use]
+    pub const fn is_compiled(self) -> bool {
+        matches!(self, Preconditioner::Mass) || cfg!(feature = "two-level")
+    }
+}
+
+impl Default for Preconditioner {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
 /// How the scene is stepped.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -25,8 +87,12 @@ pub struct Settings {
     /// Stiffness-proportional Rayleigh damping `α_K` (s, `≥ 0`). Default 0.
     pub rayleigh_stiffness: f32,
     /// Start CG from the previous step's velocity change (with its net linear
-    /// and angular momentum removed when nothing holds the body). Default off.
+    /// and angular momentum removed when nothing holds the body), scaled to
+    /// the multiple that minimises the solve's energy norm of the error, so
+    /// that a guess never starts the solve worse than no guess. Default off.
     pub warm_start: bool,
+    /// What preconditions CG. Default [`Preconditioner::DEFAULT`].
+    pub preconditioner: Preconditioner,
     /// Gravity (m/s²). Default `(0, 0, −9.81)`.
     pub gravity: Vec3,
 }
@@ -43,6 +109,7 @@ impl Settings {
             rayleigh_mass: 0.0,
             rayleigh_stiffness: 0.0,
             warm_start: false,
+            preconditioner: Preconditioner::DEFAULT,
             gravity: [0.0, 0.0, -9.81],
         }
     }
@@ -58,6 +125,7 @@ impl Settings {
         rayleigh_mass: 0.0,
         rayleigh_stiffness: 0.0,
         warm_start: false,
+        preconditioner: Preconditioner::Mass,
         gravity: [0.0; 3],
     };
 

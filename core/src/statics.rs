@@ -212,7 +212,9 @@ impl<S: Storage> Scene<S> {
                     cfg.cg_iterations,
                     cfg.cg_tolerance,
                     false,
+                    false,
                     |_, z| z,
+                    None::<fn(&mut [NodeWork]) -> f32>,
                     apply,
                 );
                 last.cg_iterations = out.iterations;

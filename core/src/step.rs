@@ -34,6 +34,8 @@ use crate::storage::LOADED;
 #[cfg(feature = "ground")]
 use crate::storage::RELEASED;
 use crate::storage::{Node, NodeWork, CONTACT, FIXED};
+#[cfg(feature = "two-level")]
+use crate::Preconditioner;
 use crate::StepError;
 
 /// The step, compiled once in this crate (`Scene::step` of every storage
@@ -77,6 +79,8 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
         grabs,
         #[cfg(feature = "loads")]
         loads,
+        #[cfg(feature = "two-level")]
+        mut pre,
     } = v;
     let s = hdr.settings;
     let per_young = hdr.per_young();
@@ -112,6 +116,14 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
         pass::IntoWork(work),
     );
     hdr.inverted = totals.inverted;
+
+    // The preconditioner: node blocks of A from the gradients just
+    // refreshed, the aggregates' rotations, and (after a change) the coarse
+    // factor.
+    #[cfg(feature = "two-level")]
+    let kind = prepare(
+        hdr, per_young, nodes, elems, n_elems, &mut pre, mass_coef, k_coef,
+    );
 
     // Node pass: right-hand side, preconditioner, constraints, initial guess.
     //
@@ -218,23 +230,41 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
     // compiles the step for another instruction set (a `#[target_feature]`
     // caller) gets them compiled for it too; a closure left out of line would
     // stay at the baseline. Elsewhere one out-of-line copy saves flash.
+    #[cfg(feature = "two-level")]
+    let whole = (kind != Preconditioner::Mass).then_some(
+        #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
+        |work: &mut [NodeWork]| {
+            crate::precond::apply(nodes, work, &mut pre, |i, z| {
+                filter(
+                    #[cfg(feature = "ground")]
+                    ground,
+                    nodes,
+                    i,
+                    z,
+                )
+            })
+        },
+    );
+    #[cfg(not(feature = "two-level"))]
+    let whole = None::<fn(&mut [NodeWork]) -> f32>;
     let outcome = cg::solve(
         work,
         s.cg_iterations,
         s.cg_tolerance,
         from_guess,
+        // A guess is scaled unless it prescribes held normals.
+        held == 0,
         #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
         |i: usize, z: Vec3| -> Vec3 {
-            // The ground first: without it, the loop reads no node flags.
-            #[cfg(feature = "ground")]
-            if let Some(g) = ground {
-                if nodes.get(i).is_some_and(|n| n.flags & CONTACT != 0) {
-                    return g.filter(z);
-                }
-            }
-            let _ = i;
-            z
+            filter(
+                #[cfg(feature = "ground")]
+                ground,
+                nodes,
+                i,
+                z,
+            )
         },
+        whole,
         // A d = (1 + h α_M) M d + h (α_K + h) K d (+ h² k/n d on grabbed nodes),
         // into q = 0; returns dᵀ A d.
         #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
@@ -259,7 +289,14 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
     // projection) go into the spent CG scratch `d` and `q`, and the state is
     // written only if they and the tool force are all finite.
     if outcome.overflow {
-        return Err(StepError::Diverged);
+        return Err(refuse(work));
+    }
+    // A preconditioner other than the mass does not keep the momentum of an
+    // isolated body in its iterates: the rigid part of the residual is
+    // solved for exactly instead (DESIGN.md §4c).
+    #[cfg(feature = "two-level")]
+    if isolated && kind != Preconditioner::Mass {
+        restore_momentum(nodes, work, mass_coef);
     }
     #[allow(unused_mut)] // only the tool adds to it
     let mut tool_force = [0.0f32; 3];
@@ -295,7 +332,7 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
         w.q = v;
     }
     if probe != 0.0 || !is_finite3(tool_force) {
-        return Err(StepError::Diverged);
+        return Err(refuse(work));
     }
     for (n, w) in nodes.iter_mut().zip(work.iter()) {
         n.u = w.d;
@@ -324,27 +361,92 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
     })
 }
 
+/// Refuses the step: its solution, which would be the next step's warm
+/// start, is dropped, so that a refused step leaves no guess behind.
+#[cold]
+fn refuse(work: &mut [NodeWork]) -> StepError {
+    for w in work.iter_mut() {
+        w.x = [0.0; 3];
+    }
+    StepError::Diverged
+}
+
+/// The filter `S` of node `i`: the ground's normal removed from a held
+/// node. The ground is tested first: without it, the loop reads no node
+/// flags.
+#[inline(always)]
+fn filter(
+    #[cfg(feature = "ground")] ground: Option<crate::ground::Plane>,
+    nodes: &[Node],
+    i: usize,
+    z: Vec3,
+) -> Vec3 {
+    #[cfg(feature = "ground")]
+    if let Some(g) = ground {
+        if nodes.get(i).is_some_and(|n| n.flags & CONTACT != 0) {
+            return g.filter(z);
+        }
+    }
+    let _ = (i, nodes);
+    z
+}
+
 /// Removes the net linear and angular momentum of the warm-start guess
 /// `Σ m x` and `Σ (p − c) × m x` (about the centre of mass `c`), so that a
 /// warm start keeps the momentum of an isolated body exact.
 fn remove_momentum(nodes: &[Node], work: &mut [NodeWork]) {
+    if let Some((c, vel, omega)) = rigid_fit(nodes, work, |n, w| scale(w.x, n.mass)) {
+        for (n, w) in nodes.iter().zip(work.iter_mut()) {
+            let r = sub(n.position(), c);
+            w.x = sub(sub(w.x, vel), cross(omega, r));
+        }
+    }
+}
+
+/// Adds to the solution the rigid velocity change that cancels the net
+/// force `Σ r` and torque `Σ (p − c) × r` of the residual: A applied to a
+/// rigid field is `mass_coef M` times it (K annihilates rigid fields), so
+/// `δv + ω × (p − c)` with `mass_coef M δv = Σ r` and
+/// `mass_coef I ω = Σ (p − c) × r` leaves a residual with neither, which is
+/// what the exact step's momentum needs.
+#[cfg(feature = "two-level")]
+fn restore_momentum(nodes: &[Node], work: &mut [NodeWork], mass_coef: f32) {
+    if let Some((c, vel, omega)) = rigid_fit(nodes, work, |_, w| w.r) {
+        let (vel, omega) = (scale(vel, 1.0 / mass_coef), scale(omega, 1.0 / mass_coef));
+        for (n, w) in nodes.iter().zip(work.iter_mut()) {
+            let r = sub(n.position(), c);
+            w.x = add(add(w.x, vel), cross(omega, r));
+        }
+    }
+}
+
+/// The rigid motion `(c, v, ω)` whose momentum is that of the field
+/// `f(node, work)` (a momentum per node, or a force): `v = Σ f / Σ m`, and
+/// `ω = I⁻¹ Σ (p − c) × (f − m v)` with the inertia
+/// `I = Σ m (|p − c|² I − (p − c)(p − c)ᵀ)` about the centre of mass `c`.
+/// `None` for a body without mass.
+fn rigid_fit(
+    nodes: &[Node],
+    work: &[NodeWork],
+    f: impl Fn(&Node, &NodeWork) -> Vec3,
+) -> Option<(Vec3, Vec3, Vec3)> {
     let (mut mass, mut mc, mut lin) = (0.0f32, [0.0f32; 3], [0.0f32; 3]);
     for (n, w) in nodes.iter().zip(work.iter()) {
         mass += n.mass;
         mc = axpy(mc, n.mass, n.position());
-        lin = axpy(lin, n.mass, w.x);
+        lin = add(lin, f(n, w));
     }
     if !(mass > 0.0) {
-        return;
+        return None;
     }
     let c = scale(mc, 1.0 / mass);
     let vel = scale(lin, 1.0 / mass);
-    // Angular momentum L of the guess about c and inertia I = Σ m (|r|² I − r rᵀ).
+    // Angular momentum L of the field about c and inertia I = Σ m (|r|² I − r rᵀ).
     let mut l = [0.0f32; 3];
     let mut inertia = [[0.0f32; 3]; 3];
     for (n, w) in nodes.iter().zip(work.iter()) {
         let r = sub(n.position(), c);
-        l = axpy(l, n.mass, cross(r, sub(w.x, vel)));
+        l = add(l, cross(r, axpy(f(n, w), -n.mass, vel)));
         let r2 = dot(r, r);
         for (a, row) in inertia.iter_mut().enumerate() {
             for (b, iab) in row.iter_mut().enumerate() {
@@ -354,8 +456,77 @@ fn remove_momentum(nodes: &[Node], work: &mut [NodeWork]) {
         }
     }
     let omega = solve3(&inertia, l).unwrap_or([0.0; 3]);
-    for (n, w) in nodes.iter().zip(work.iter_mut()) {
-        let r = sub(n.position(), c);
-        w.x = sub(sub(w.x, vel), cross(omega, r));
+    Some((c, vel, omega))
+}
+
+/// Makes the preconditioner's data current for this step and returns the
+/// preconditioner to use: the node blocks of `A`, the aggregates' rotations,
+/// and, after anything that changed `A`'s rest value, the aggregates and
+/// the coarse factor. `Mass` when the storage has no room for the one the
+/// settings ask for (`Scene::set_settings` refuses that, so only a scene
+/// whose defaults were never written reaches it).
+#[cfg(feature = "two-level")]
+#[allow(clippy::too_many_arguments)]
+fn prepare(
+    hdr: &mut crate::scene::Header,
+    per_young: [f32; 2],
+    nodes: &[Node],
+    elems: &[crate::element::ElementBlock],
+    n_elems: usize,
+    pre: &mut crate::precond::Parts<'_>,
+    mass_coef: f32,
+    k_coef: f32,
+) -> Preconditioner {
+    use crate::precond;
+    let mut kind = hdr.settings.preconditioner;
+    if kind == Preconditioner::Mass || pre.blocks.len() != nodes.len() {
+        return Preconditioner::Mass;
     }
+    #[cfg(feature = "tool")]
+    let tool = hdr.tool;
+    let h = hdr.settings.dt;
+    // The aggregation first: it moves the node slots around.
+    if kind == Preconditioner::TwoLevel && !hdr.coarse_ready {
+        hdr.n_aggs = precond::aggregate(nodes, pre.blocks, pre.aggs);
+    }
+    precond::node_blocks(
+        per_young,
+        elems,
+        n_elems,
+        nodes,
+        pre.blocks,
+        mass_coef,
+        k_coef,
+        |_i, _n| {
+            #[cfg(feature = "tool")]
+            if _n.flags & GRABBED != 0 && tool.active() {
+                return h * h * tool.k_node;
+            }
+            let _ = h;
+            0.0
+        },
+    );
+    // The aggregates in use (none for block-Jacobi): what `precond::apply`
+    // works with.
+    let n = if kind == Preconditioner::TwoLevel {
+        hdr.n_aggs
+    } else {
+        0
+    };
+    pre.aggs = core::mem::take(&mut pre.aggs)
+        .get_mut(..n)
+        .unwrap_or_default();
+    pre.coarse = core::mem::take(&mut pre.coarse)
+        .get_mut(..n * n)
+        .unwrap_or_default();
+    if n > 0 {
+        precond::rotations(nodes, pre.blocks, pre.aggs);
+        if !hdr.coarse_ready {
+            precond::factor(per_young, elems, n_elems, nodes, pre, mass_coef, k_coef);
+        }
+    } else {
+        kind = Preconditioner::BlockJacobi;
+    }
+    hdr.coarse_ready = true;
+    kind
 }

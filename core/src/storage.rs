@@ -204,10 +204,22 @@ pub(crate) mod sealed {
         // Every storage has the slots; only the loads read them.
         #[cfg_attr(not(feature = "loads"), allow(dead_code))]
         pub(crate) loads: &'a mut [NodeEntry],
+        /// Node-block preconditioner slots (none, or one per node).
+        #[cfg(feature = "two-level")]
+        pub(crate) blocks: &'a mut [crate::precond::NodeBlock],
+        /// Aggregate slots of the two-level preconditioner.
+        #[cfg(feature = "two-level")]
+        pub(crate) aggs: &'a mut [crate::precond::Aggregate],
+        /// Coarse factor slots (the square of the aggregate slots).
+        #[cfg(feature = "two-level")]
+        pub(crate) coarse: &'a mut [crate::precond::CoarseBlock],
     }
 
     /// Access to a storage's slots.
     pub trait Sealed {
+        /// Node-block, aggregate and coarse-block slots.
+        #[cfg(feature = "two-level")]
+        fn preconditioner_capacity(&self) -> (usize, usize, usize);
         /// Node and element-block slots.
         fn parts(&self) -> (&[Node], &[ElementBlock]);
         /// All slots, mutable.
@@ -232,6 +244,10 @@ impl<S: sealed::Sealed + ?Sized> Storage for S {}
 /// `ArrayStorage` in a zero-initialised `static` (`.bss`) while the scene
 /// header stays on the stack.
 impl<S: sealed::Sealed + ?Sized> sealed::Sealed for &mut S {
+    #[cfg(feature = "two-level")]
+    fn preconditioner_capacity(&self) -> (usize, usize, usize) {
+        (**self).preconditioner_capacity()
+    }
     fn parts(&self) -> (&[Node], &[ElementBlock]) {
         (**self).parts()
     }
@@ -244,18 +260,43 @@ impl<S: sealed::Sealed + ?Sized> sealed::Sealed for &mut S {
 /// blocks, that is `B × ELEMENTS_PER_BLOCK` tetrahedra (size `B` with
 /// [`element_blocks`](crate::element_blocks)); up to `G` nodes held by the
 /// tool (feature `tool`) and `L` nodes with a constant external force
-/// (feature `loads`), 16 bytes each. `const fn new` lets a whole scene live
-/// in a `static`.
+/// (feature `loads`), 16 bytes each; with the feature `two-level`, `P` node
+/// slots of preconditioner data (32 bytes each: `N` of them, or 0 for the
+/// mass preconditioner only) and up to `A` aggregates for the two-level
+/// preconditioner's coarse space (`128 + 144 A` bytes each: 0 for
+/// block-Jacobi at most). `const fn new` lets a whole scene live in a
+/// `static`.
 #[derive(Clone, Debug)]
-pub struct ArrayStorage<const N: usize, const B: usize, const G: usize = 0, const L: usize = 0> {
+pub struct ArrayStorage<
+    const N: usize,
+    const B: usize,
+    const G: usize = 0,
+    const L: usize = 0,
+    const P: usize = 0,
+    const A: usize = 0,
+> {
     nodes: [Node; N],
     work: [NodeWork; N],
     elems: [ElementBlock; B],
     grabs: [NodeEntry; G],
     loads: [NodeEntry; L],
+    #[cfg(feature = "two-level")]
+    blocks: [crate::precond::NodeBlock; P],
+    #[cfg(feature = "two-level")]
+    aggs: [crate::precond::Aggregate; A],
+    #[cfg(feature = "two-level")]
+    coarse: [[crate::precond::CoarseBlock; A]; A],
 }
 
-impl<const N: usize, const B: usize, const G: usize, const L: usize> ArrayStorage<N, B, G, L> {
+impl<
+        const N: usize,
+        const B: usize,
+        const G: usize,
+        const L: usize,
+        const P: usize,
+        const A: usize,
+    > ArrayStorage<N, B, G, L, P, A>
+{
     /// Empty storage.
     #[must_use]
     pub const fn new() -> Self {
@@ -265,21 +306,43 @@ impl<const N: usize, const B: usize, const G: usize, const L: usize> ArrayStorag
             elems: [ElementBlock::EMPTY; B],
             grabs: [NodeEntry::EMPTY; G],
             loads: [NodeEntry::EMPTY; L],
+            #[cfg(feature = "two-level")]
+            blocks: [crate::precond::NodeBlock::EMPTY; P],
+            #[cfg(feature = "two-level")]
+            aggs: [crate::precond::Aggregate::EMPTY; A],
+            #[cfg(feature = "two-level")]
+            coarse: [[crate::precond::CoarseBlock::EMPTY; A]; A],
         }
     }
 }
 
-impl<const N: usize, const B: usize, const G: usize, const L: usize> Default
-    for ArrayStorage<N, B, G, L>
+impl<
+        const N: usize,
+        const B: usize,
+        const G: usize,
+        const L: usize,
+        const P: usize,
+        const A: usize,
+    > Default for ArrayStorage<N, B, G, L, P, A>
 {
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl<const N: usize, const B: usize, const G: usize, const L: usize> sealed::Sealed
-    for ArrayStorage<N, B, G, L>
+impl<
+        const N: usize,
+        const B: usize,
+        const G: usize,
+        const L: usize,
+        const P: usize,
+        const A: usize,
+    > sealed::Sealed for ArrayStorage<N, B, G, L, P, A>
 {
+    #[cfg(feature = "two-level")]
+    fn preconditioner_capacity(&self) -> (usize, usize, usize) {
+        (P, A, A * A)
+    }
     fn parts(&self) -> (&[Node], &[ElementBlock]) {
         (&self.nodes, &self.elems)
     }
@@ -290,6 +353,12 @@ impl<const N: usize, const B: usize, const G: usize, const L: usize> sealed::Sea
             elems: &mut self.elems,
             grabs: &mut self.grabs,
             loads: &mut self.loads,
+            #[cfg(feature = "two-level")]
+            blocks: &mut self.blocks,
+            #[cfg(feature = "two-level")]
+            aggs: &mut self.aggs,
+            #[cfg(feature = "two-level")]
+            coarse: self.coarse.as_flattened_mut(),
         }
     }
 }
@@ -305,6 +374,12 @@ pub struct SliceStorage<'a> {
     elems: &'a mut [ElementBlock],
     grabs: &'a mut [NodeEntry],
     loads: &'a mut [NodeEntry],
+    #[cfg(feature = "two-level")]
+    blocks: &'a mut [crate::precond::NodeBlock],
+    #[cfg(feature = "two-level")]
+    aggs: &'a mut [crate::precond::Aggregate],
+    #[cfg(feature = "two-level")]
+    coarse: &'a mut [crate::precond::CoarseBlock],
 }
 
 impl<'a> SliceStorage<'a> {
@@ -324,6 +399,32 @@ impl<'a> SliceStorage<'a> {
             elems,
             grabs: &mut [],
             loads: &mut [],
+            #[cfg(feature = "two-level")]
+            blocks: &mut [],
+            #[cfg(feature = "two-level")]
+            aggs: &mut [],
+            #[cfg(feature = "two-level")]
+            coarse: &mut [],
+        }
+    }
+
+    /// With `blocks` (one per node) as the node-block preconditioner's
+    /// slots, and `aggs` and `coarse` (`aggs.len()²` of them) for up to
+    /// `aggs.len()` aggregates of the two-level preconditioner's coarse
+    /// space (feature `two-level`).
+    #[cfg(feature = "two-level")]
+    #[must_use]
+    pub fn with_preconditioner(
+        self,
+        blocks: &'a mut [crate::precond::NodeBlock],
+        aggs: &'a mut [crate::precond::Aggregate],
+        coarse: &'a mut [crate::precond::CoarseBlock],
+    ) -> Self {
+        Self {
+            blocks,
+            aggs,
+            coarse,
+            ..self
         }
     }
 
@@ -341,6 +442,10 @@ impl<'a> SliceStorage<'a> {
 }
 
 impl sealed::Sealed for SliceStorage<'_> {
+    #[cfg(feature = "two-level")]
+    fn preconditioner_capacity(&self) -> (usize, usize, usize) {
+        (self.blocks.len(), self.aggs.len(), self.coarse.len())
+    }
     fn parts(&self) -> (&[Node], &[ElementBlock]) {
         (self.nodes, self.elems)
     }
@@ -351,6 +456,12 @@ impl sealed::Sealed for SliceStorage<'_> {
             elems: self.elems,
             grabs: self.grabs,
             loads: self.loads,
+            #[cfg(feature = "two-level")]
+            blocks: self.blocks,
+            #[cfg(feature = "two-level")]
+            aggs: self.aggs,
+            #[cfg(feature = "two-level")]
+            coarse: self.coarse,
         }
     }
 }
@@ -382,6 +493,12 @@ pub struct VecStorage {
     elems: alloc::vec::Vec<ElementBlock>,
     grabs: alloc::vec::Vec<NodeEntry>,
     loads: alloc::vec::Vec<NodeEntry>,
+    #[cfg(feature = "two-level")]
+    blocks: alloc::vec::Vec<crate::precond::NodeBlock>,
+    #[cfg(feature = "two-level")]
+    aggs: alloc::vec::Vec<crate::precond::Aggregate>,
+    #[cfg(feature = "two-level")]
+    coarse: alloc::vec::Vec<crate::precond::CoarseBlock>,
 }
 
 #[cfg(feature = "alloc")]
@@ -404,12 +521,20 @@ impl VecStorage {
             _ => (alloc::vec::Vec::new(), alloc::vec::Vec::new()),
         };
         let entries = nodes.len();
+        #[cfg(feature = "two-level")]
+        let aggs = crate::precond::aggregates_for(entries, crate::precond::MAX_AGGREGATES);
         Self {
             nodes,
             work,
             elems: slots(blocks, ElementBlock::EMPTY),
             grabs: slots(entries, NodeEntry::EMPTY),
             loads: slots(entries, NodeEntry::EMPTY),
+            #[cfg(feature = "two-level")]
+            blocks: slots(entries, crate::precond::NodeBlock::EMPTY),
+            #[cfg(feature = "two-level")]
+            aggs: slots(aggs, crate::precond::Aggregate::EMPTY),
+            #[cfg(feature = "two-level")]
+            coarse: slots(aggs * aggs, crate::precond::CoarseBlock::EMPTY),
         }
     }
 }
@@ -426,6 +551,10 @@ fn slots<T: Copy>(n: usize, value: T) -> alloc::vec::Vec<T> {
 
 #[cfg(feature = "alloc")]
 impl sealed::Sealed for VecStorage {
+    #[cfg(feature = "two-level")]
+    fn preconditioner_capacity(&self) -> (usize, usize, usize) {
+        (self.blocks.len(), self.aggs.len(), self.coarse.len())
+    }
     fn parts(&self) -> (&[Node], &[ElementBlock]) {
         (&self.nodes, &self.elems)
     }
@@ -436,6 +565,12 @@ impl sealed::Sealed for VecStorage {
             elems: &mut self.elems,
             grabs: &mut self.grabs,
             loads: &mut self.loads,
+            #[cfg(feature = "two-level")]
+            blocks: &mut self.blocks,
+            #[cfg(feature = "two-level")]
+            aggs: &mut self.aggs,
+            #[cfg(feature = "two-level")]
+            coarse: &mut self.coarse,
         }
     }
 }

@@ -4,7 +4,7 @@
 #![allow(dead_code)] // each target uses a part
 
 use arbitrary::{Result, Unstructured};
-use corofem::{Material, Method, Plane, Scene, Settings, Storage};
+use corofem::{Material, Method, Plane, Preconditioner, Scene, Settings, Storage};
 
 /// A finite f32 of any magnitude: small integers, scaled integers from 1e-40
 /// to 1e38, or any finite bit pattern.
@@ -103,6 +103,7 @@ pub fn settings(u: &mut Unstructured) -> Result<Settings> {
     let rayleigh_mass = damping(u)?;
     let rayleigh_stiffness = damping(u)?;
     let warm_start = u.arbitrary()?;
+    let preconditioner = *u.choose(&Preconditioner::VARIANTS)?;
     let gravity = if u.arbitrary()? {
         [0.0, 0.0, -9.81]
     } else {
@@ -116,6 +117,7 @@ pub fn settings(u: &mut Unstructured) -> Result<Settings> {
         rayleigh_mass,
         rayleigh_stiffness,
         warm_start,
+        preconditioner,
         gravity,
     })
 }

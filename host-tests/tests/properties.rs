@@ -22,8 +22,8 @@ use std::collections::BTreeMap;
 use std::fmt::Debug;
 
 use corofem::{
-    BoxMesh, BuildOptions, Error, Material, Method, Parameter, Plane, Settings, StaticScene,
-    StaticSettings, StepError, Storage, VecScene,
+    BoxMesh, BuildOptions, Error, Material, Method, Parameter, Plane, Preconditioner, Settings,
+    StaticScene, StaticSettings, StepError, Storage, VecScene,
 };
 use corofem_host_tests::Rng;
 use proptest::prelude::*;
@@ -199,19 +199,22 @@ fn settings() -> impl Strategy<Value = Settings> + Clone {
         prop_oneof![3 => Just(0.0f32), 1 => log_uniform(-8.0, 0.0)],
         damping.clone(),
         damping,
-        any::<bool>(),
+        (any::<bool>(), 0usize..3),
         gravity,
     )
         .prop_map(
-            |(method, dt, cg_iterations, cg_tolerance, rm, rk, warm_start, gravity)| Settings {
-                method,
-                dt,
-                cg_iterations,
-                cg_tolerance,
-                rayleigh_mass: rm,
-                rayleigh_stiffness: rk,
-                warm_start,
-                gravity,
+            |(method, dt, cg_iterations, cg_tolerance, rm, rk, (warm_start, pre), gravity)| {
+                Settings {
+                    method,
+                    dt,
+                    cg_iterations,
+                    cg_tolerance,
+                    rayleigh_mass: rm,
+                    rayleigh_stiffness: rk,
+                    warm_start,
+                    preconditioner: Preconditioner::VARIANTS[pre],
+                    gravity,
+                }
             },
         )
 }

@@ -13,8 +13,8 @@
 //! `no_std`, no allocation, no panicking code: only `corofem` and `core`.
 
 use corofem::{
-    BoxMesh, BuildOptions, Error, Material, Method, Scene, Settings, StepError, StepStats, Storage,
-    Vec3,
+    BoxMesh, BuildOptions, Error, Material, Method, Preconditioner, Scene, Settings, StepError,
+    StepStats, Storage, Vec3,
 };
 
 /// Edge of one cubic cell (m).
@@ -56,6 +56,7 @@ pub const fn settings() -> Settings {
         rayleigh_mass: 1.0,
         rayleigh_stiffness: 1.0e-3,
         warm_start: false,
+        preconditioner: Preconditioner::Mass,
         gravity: [0.0; 3],
     }
 }

@@ -1,0 +1,105 @@
+//! Error against the converged implicit step, and time per step, of chosen
+//! solver settings on the report's scenes (dt 1 ms, 200 steps from rest):
+//!
+//! ```text
+//! cargo run --release -p corofem-bench --example solver_error -- [scene …]
+//! ```
+//!
+//! Scenes: `beam`, `liver`, `bunny` (the report's), `liver3k`, `bunny3k`.
+//! Each line gives the preconditioner, CG iterations, mean ms per step and
+//! the relative RMS position error against the f64 reference with linear
+//! systems solved to 1e-12 (the "solve error" of the report).
+
+use corofem::{Method, Preconditioner};
+use corofem_bench::reference::{RefMethod, Trajectory};
+use corofem_bench::scenes::{self, SceneDef};
+use std::time::Instant;
+
+fn scene(name: &str) -> SceneDef {
+    let m = scenes::meshes_dir();
+    match name {
+        "beam" => scenes::beam(),
+        "liver" => scenes::liver(&m),
+        "bunny" => scenes::bunny(&m),
+        "liver3k" => {
+            let mut s = scenes::from_file("liver3k", &m.join("liver_ftw_3k.tetmesh"), 0.03);
+            let top = s.nodes.iter().map(|p| p[1]).fold(f32::MIN, f32::max);
+            s.fixed = (0..s.nodes.len() as u32)
+                .filter(|&i| s.nodes[i as usize][1] >= top - 0.005)
+                .collect();
+            s.rayleigh_mass = 0.5;
+            s.rayleigh_stiffness = 0.002;
+            s
+        }
+        "bunny3k" => {
+            let mut s = scenes::from_file("bunny3k", &m.join("bunny_ftw_3k.tetmesh"), 1.0);
+            let top = s.nodes.iter().map(|p| p[1]).fold(f32::MIN, f32::max);
+            s.fixed = (0..s.nodes.len() as u32)
+                .filter(|&i| s.nodes[i as usize][1] >= top - 0.008)
+                .collect();
+            s.rayleigh_mass = 0.5;
+            s.rayleigh_stiffness = 0.002;
+            s
+        }
+        _ => panic!("unknown scene {name}"),
+    }
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let names = if args.is_empty() {
+        vec!["beam".to_owned(), "liver".to_owned(), "bunny".to_owned()]
+    } else {
+        args
+    };
+    let steps = 200;
+    let dt = 1.0e-3;
+    for name in &names {
+        let d = scene(name);
+        let mut r = d.reference().with_method(RefMethod::Qr);
+        let rs = d.ref_settings(dt);
+        let mut traj = Trajectory::default();
+        for _ in 0..steps {
+            r.step(&rs);
+            traj.push(&r.u);
+        }
+        let runs = [
+            (Preconditioner::Mass, 5),
+            (Preconditioner::BlockJacobi, 5),
+            (Preconditioner::TwoLevel, 3),
+            (Preconditioner::TwoLevel, 4),
+            (Preconditioner::TwoLevel, 5),
+        ];
+        for (pre, cg) in runs {
+            let mut sc = d.core_with(Method::Qr, dt as f32, cg, pre);
+            let (mut e, mut secs) = (0.0f64, 0.0f64);
+            let mut diverged = false;
+            for s in 0..steps {
+                let t = Instant::now();
+                let st = sc.step();
+                secs += t.elapsed().as_secs_f64();
+                if st.is_err() {
+                    diverged = true;
+                    break;
+                }
+                e += traj.sq_err(
+                    s,
+                    (0..sc.node_count() as u32)
+                        .map(|i| sc.displacement(i).unwrap_or([f32::NAN; 3]).map(f64::from)),
+                );
+            }
+            println!(
+                "{name:8} {:5} nodes {:6} tets  {:13} cg {cg:2}  {:.4} ms/step  error {}",
+                d.nodes.len(),
+                d.tets.len(),
+                pre.name(),
+                secs * 1e3 / steps as f64,
+                if diverged {
+                    "diverged".to_owned()
+                } else {
+                    format!("{:.2e}", traj.relative(e))
+                }
+            );
+        }
+    }
+}

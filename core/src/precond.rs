@@ -1,0 +1,708 @@
+//! Preconditioners that see stiffness (feature `two-level`): 3×3 node-block
+//! Jacobi, and a two-level additive preconditioner that adds a coarse space
+//! of rigid-body modes per aggregate of nodes.
+//!
+//! With `A = (1 + h α_M) M + h (h + α_K) K` and the filter `S` of the
+//! constraints, the two-level preconditioner is
+//!
+//! ```text
+//! P⁻¹ = S (D⁻¹ + Φ A_c⁻¹ Φᵀ) S,    A_c = Φᵀ A Φ
+//! ```
+//!
+//! - `D` holds the 3×3 node blocks of `A`, rebuilt every step from the
+//!   gradients the force pass has just refreshed: for node `i` of an element,
+//!   `K_ii = (λ' + μ') gᵢ gᵢᵀ + μ' |gᵢ|² I` (the `i = j` case of
+//!   `K_ij = λ' gᵢ g_jᵀ + μ' g_j gᵢᵀ + μ' (gᵢ·g_j) I`, `crate::element::hform`).
+//!   It sees what a lumped mass cannot: a node of a small or sliver element
+//!   is far stiffer than its mass says.
+//! - `Φ` has six columns per aggregate `a` (a compact group of free nodes,
+//!   from recursive coordinate bisection of the rest positions): the rigid
+//!   translations and rotations of its nodes, turned by the aggregate's
+//!   current rotation `R_a` (the rotation closest to `Σ m (x − c)(x₀ − c₀)ᵀ`,
+//!   shape matching): node `i` of `a` moves by `R_a (t + ω × pᵢ)`,
+//!   `pᵢ = x₀ᵢ − c₀ₐ`. Each CG iteration spreads information one ring of
+//!   elements further; the coarse space carries the low-frequency motion
+//!   (bending, sagging) across the body at once, which is what a few
+//!   iterations miss.
+//! - `A_c` is the Galerkin operator at the state where it was last prepared
+//!   (the rest shape, usually), factorised once by Cholesky. Because `Φ`
+//!   turns with the aggregates, `Φᵀ A Φ` changes little as the body
+//!   rotates, and the factor serves later steps unchanged (SOFA's
+//!   `WarpPreconditioner` makes the same bet with a fine-level factor). It
+//!   is prepared again, on the next step, after anything that changes `A`'s
+//!   rest value: the settings, the material, the fixed nodes, a rebuild.
+//!
+//! Both parts are symmetric positive (semi)definite, so `P⁻¹` is a valid CG
+//! preconditioner whatever the state; an approximate `A_c` only costs
+//! iterations, never correctness.
+
+use crate::element::ElementBlock;
+use crate::math::{add, cross, dot, neg, scale, sqrt, sub, Mat3, Vec3};
+use crate::storage::{Node, NodeWork, FIXED};
+use crate::ELEMENTS_PER_BLOCK as LANES;
+
+/// What [`NodeBlock::aggregate`] holds for a node in no aggregate (fixed).
+const NONE: u32 = u32::MAX;
+
+/// A node's slot of preconditioner data (32 bytes): opaque, named only to
+/// provide memory.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NodeBlock {
+    /// The inverse of the node's 3×3 block of `A`, `[xx, yy, zz, xy, yz, zx]`
+    /// (zero on fixed nodes).
+    pub(crate) inv: [f32; 6],
+    /// The node's aggregate, or `NONE`.
+    pub(crate) aggregate: u32,
+    /// Scratch of the aggregation: a node index.
+    pub(crate) order: u32,
+}
+
+impl NodeBlock {
+    /// An unused slot.
+    pub const EMPTY: Self = Self {
+        inv: [0.0; 6],
+        aggregate: NONE,
+        order: 0,
+    };
+}
+
+impl Default for NodeBlock {
+    fn default() -> Self {
+        Self::EMPTY
+    }
+}
+
+/// An aggregate's slot (128 bytes): opaque, named only to provide memory.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Aggregate {
+    /// Mass-weighted rest centroid `c₀` (m).
+    pub(crate) c0: Vec3,
+    /// Rest second moment `Σ m p pᵀ` (kg m²).
+    pub(crate) s0: Mat3,
+    /// Current rotation `R_a` (rows), and its quaternion (the warm start of
+    /// the next step's search).
+    pub(crate) rot: Mat3,
+    pub(crate) q: [f32; 4],
+    /// `Σ m u pᵀ`, then `S₀ + Σ m u pᵀ = Σ m (x − c) pᵀ`.
+    pub(crate) apq: Mat3,
+    /// Coarse vector `(t, ω)`.
+    pub(crate) y: [f32; 6],
+}
+
+impl Aggregate {
+    /// An unused slot.
+    pub const EMPTY: Self = Self {
+        c0: [0.0; 3],
+        s0: [[0.0; 3]; 3],
+        rot: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+        q: [1.0, 0.0, 0.0, 0.0],
+        apq: [[0.0; 3]; 3],
+        y: [0.0; 6],
+    };
+}
+
+impl Default for Aggregate {
+    fn default() -> Self {
+        Self::EMPTY
+    }
+}
+
+/// A 6×6 block of the coarse operator's Cholesky factor, row-major (144
+/// bytes): opaque, named only to provide memory. A scene with `n`
+/// aggregates uses `n²` of them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CoarseBlock {
+    pub(crate) m: [f32; 36],
+}
+
+impl CoarseBlock {
+    /// An unused slot.
+    pub const EMPTY: Self = Self { m: [0.0; 36] };
+}
+
+impl Default for CoarseBlock {
+    fn default() -> Self {
+        Self::EMPTY
+    }
+}
+
+/// Free nodes per aggregate that [`aggregates_for`] aims at: measured on the
+/// report's scenes, fewer nodes per aggregate keep reducing the error of a
+/// few iterations, while the coarse solve's cost grows as the square of the
+/// aggregate count.
+pub const NODES_PER_AGGREGATE: usize = 24;
+
+/// The aggregates `VecStorage` has room for: the coarse solve costs
+/// `(6 n)²` multiply-adds per CG iteration for `n` aggregates.
+pub const MAX_AGGREGATES: usize = 64;
+
+/// The number of aggregates the two-level preconditioner uses for a body of
+/// `free_nodes` free nodes with room for `capacity`: one per
+/// [`NODES_PER_AGGREGATE`] nodes, at least one, at most `capacity`.
+#[must_use]
+pub const fn aggregates_for(free_nodes: usize, capacity: usize) -> usize {
+    let n = free_nodes.div_ceil(NODES_PER_AGGREGATE);
+    let n = if n == 0 { 1 } else { n };
+    if n < capacity {
+        n
+    } else {
+        capacity
+    }
+}
+
+/// The slices the preconditioners work on.
+pub(crate) struct Parts<'a> {
+    pub(crate) blocks: &'a mut [NodeBlock],
+    pub(crate) aggs: &'a mut [Aggregate],
+    pub(crate) coarse: &'a mut [CoarseBlock],
+}
+
+/// `[p]×`, the matrix of `v ↦ p × v`.
+fn skew(p: Vec3) -> Mat3 {
+    [[0.0, -p[2], p[1]], [p[2], 0.0, -p[0]], [-p[1], p[0], 0.0]]
+}
+
+fn mat_mul(a: &Mat3, b: &Mat3) -> Mat3 {
+    core::array::from_fn(|i| {
+        core::array::from_fn(|j| a[i][0] * b[0][j] + a[i][1] * b[1][j] + a[i][2] * b[2][j])
+    })
+}
+
+fn transpose(a: &Mat3) -> Mat3 {
+    core::array::from_fn(|i| core::array::from_fn(|j| a[j][i]))
+}
+
+/// `Rᵀ v`.
+fn mat_t_vec(m: &Mat3, v: Vec3) -> Vec3 {
+    [
+        m[0][0] * v[0] + m[1][0] * v[1] + m[2][0] * v[2],
+        m[0][1] * v[0] + m[1][1] * v[1] + m[2][1] * v[2],
+        m[0][2] * v[0] + m[1][2] * v[1] + m[2][2] * v[2],
+    ]
+}
+
+/// `s v` for a symmetric `s = [xx, yy, zz, xy, yz, zx]`.
+#[inline(always)]
+fn sym_vec(s: &[f32; 6], v: Vec3) -> Vec3 {
+    [
+        s[0] * v[0] + s[3] * v[1] + s[5] * v[2],
+        s[3] * v[0] + s[1] * v[1] + s[4] * v[2],
+        s[5] * v[0] + s[4] * v[1] + s[2] * v[2],
+    ]
+}
+
+/// The inverse of the symmetric positive definite `s`, or `None` when its
+/// determinant is not a positive normal number.
+fn sym_inverse(s: &[f32; 6]) -> Option<[f32; 6]> {
+    let [xx, yy, zz, xy, yz, zx] = *s;
+    let cxx = yy * zz - yz * yz;
+    let cyy = xx * zz - zx * zx;
+    let czz = xx * yy - xy * xy;
+    let cxy = zx * yz - xy * zz;
+    let cyz = xy * zx - xx * yz;
+    let czx = xy * yz - yy * zx;
+    let det = xx * cxx + xy * cxy + zx * czx;
+    if !(det >= f32::MIN_POSITIVE && det.is_finite()) {
+        return None;
+    }
+    let inv = 1.0 / det;
+    let out = [
+        cxx * inv,
+        cyy * inv,
+        czz * inv,
+        cxy * inv,
+        cyz * inv,
+        czx * inv,
+    ];
+    out.iter().all(|x| x.is_finite()).then_some(out)
+}
+
+/// Visits every element's nodes and world gradients `g_a … g_d` with its
+/// Lamé coefficients `[λ', μ']`.
+fn each_element(
+    per_young: [f32; 2],
+    elems: &[ElementBlock],
+    count: usize,
+    mut f: impl FnMut([usize; 4], [Vec3; 4], [f32; 2]),
+) {
+    for e in 0..count {
+        let Some(blk) = elems.get(e / LANES) else {
+            break;
+        };
+        let el = blk.get(e % LANES);
+        let g = el.grad;
+        let ga = neg(add(add(g[0], g[1]), g[2]));
+        let n = el.nodes.map(usize::from);
+        f(n, [ga, g[0], g[1], g[2]], el.lame(per_young));
+    }
+}
+
+/// Sets every node's `inv` to the inverse of its 3×3 block of
+/// `A = mass_coef M + k_coef K` plus `extra(i)` on the diagonal (the tool's
+/// spring); zero on fixed nodes. A block that cannot be inverted (not
+/// reachable with a validated scene) falls back to the inverse of its
+/// diagonal's mass part.
+#[allow(clippy::too_many_arguments)] // the step's state, passed apart so that each borrow stays narrow
+pub(crate) fn node_blocks(
+    per_young: [f32; 2],
+    elems: &[ElementBlock],
+    count: usize,
+    nodes: &[Node],
+    blocks: &mut [NodeBlock],
+    mass_coef: f32,
+    k_coef: f32,
+    extra: impl Fn(usize, &Node) -> f32,
+) {
+    for b in blocks.iter_mut() {
+        b.inv = [0.0; 6];
+    }
+    each_element(per_young, elems, count, |n, g, [l, m]| {
+        let lm = l + m;
+        for (i, gi) in n.into_iter().zip(g) {
+            if let Some(b) = blocks.get_mut(i) {
+                let (x, y, z) = (gi[0], gi[1], gi[2]);
+                let iso = m * dot(gi, gi);
+                b.inv[0] += lm * x * x + iso;
+                b.inv[1] += lm * y * y + iso;
+                b.inv[2] += lm * z * z + iso;
+                b.inv[3] += lm * x * y;
+                b.inv[4] += lm * y * z;
+                b.inv[5] += lm * z * x;
+            }
+        }
+    });
+    for (i, (n, b)) in nodes.iter().zip(blocks.iter_mut()).enumerate() {
+        if n.flags & FIXED != 0 {
+            b.inv = [0.0; 6];
+            continue;
+        }
+        let p = mass_coef * n.mass + extra(i, n);
+        let mut s = b.inv.map(|x| k_coef * x);
+        s[0] += p;
+        s[1] += p;
+        s[2] += p;
+        b.inv = sym_inverse(&s).unwrap_or([1.0 / p, 1.0 / p, 1.0 / p, 0.0, 0.0, 0.0]);
+    }
+}
+
+/// Each aggregate's current rotation: the rotation closest to
+/// `S₀ + Σ m u pᵀ = Σ m (x − c)(x₀ − c₀)ᵀ` (the `Σ m (x₀ − c₀) = 0` of the
+/// rest centroid removes the centroid's own displacement).
+pub(crate) fn rotations(nodes: &[Node], blocks: &[NodeBlock], aggs: &mut [Aggregate]) {
+    for a in aggs.iter_mut() {
+        a.apq = a.s0;
+    }
+    for (n, b) in nodes.iter().zip(blocks) {
+        if let Some(a) = aggs.get_mut(b.aggregate as usize) {
+            let p = sub(n.x0, a.c0);
+            for (row, uk) in a.apq.iter_mut().zip(n.u) {
+                let mu = n.mass * uk;
+                row[0] += mu * p[0];
+                row[1] += mu * p[1];
+                row[2] += mu * p[2];
+            }
+        }
+    }
+    for a in aggs.iter_mut() {
+        let q = extract_rotation(&a.apq, a.q);
+        a.rot = rotation(q);
+        a.q = q;
+    }
+}
+
+/// Most iterations of [`extract_rotation`]: warm-started from the last
+/// step's rotation, one or two reach f32 round-off on smooth motion.
+const ROTATION_ITERATIONS: usize = 8;
+
+/// The rotation `R` that maximises `tr(Rᵀ F)`, by Müller et al.'s
+/// iteration ("A robust method to extract the rotational part of
+/// deformations", 2016): turn `R` by `ω = Σ rₖ × fₖ / (|Σ rₖ·fₖ| + ε)` (the
+/// columns `rₖ`, `fₖ` of `R` and `F`) until `ω` vanishes. Each update
+/// is a rotation, so the result never is a reflection, whatever `F`.
+/// Returns `q` unchanged if `F` is not finite.
+fn extract_rotation(f: &Mat3, mut q: [f32; 4]) -> [f32; 4] {
+    let col = |m: &Mat3, k: usize| [m[0][k], m[1][k], m[2][k]];
+    let norm2 = f.iter().flatten().fold(0.0f32, |s, x| s + x * x);
+    if !(norm2 >= f32::MIN_POSITIVE && norm2.is_finite()) {
+        return q;
+    }
+    let eps = sqrt(norm2) * 1.0e-6;
+    for _ in 0..ROTATION_ITERATIONS {
+        let r = rotation(q);
+        let (mut num, mut den) = ([0.0f32; 3], 0.0f32);
+        for k in 0..3 {
+            let (rk, fk) = (col(&r, k), col(f, k));
+            num = add(num, cross(rk, fk));
+            den += dot(rk, fk);
+        }
+        let omega = scale(num, 1.0 / (den.abs() + eps));
+        let angle2 = dot(omega, omega);
+        if !(angle2 > f32::EPSILON * f32::EPSILON) || !angle2.is_finite() {
+            break;
+        }
+        // q ← (1, ω/2) ⊗ q, normalised: a turn by |ω| about ω to first order,
+        // exact in direction, without trigonometry.
+        let h = scale(omega, 0.5);
+        let dq = [1.0, h[0], h[1], h[2]];
+        let p = [
+            dq[0] * q[0] - dq[1] * q[1] - dq[2] * q[2] - dq[3] * q[3],
+            dq[0] * q[1] + dq[1] * q[0] + dq[2] * q[3] - dq[3] * q[2],
+            dq[0] * q[2] - dq[1] * q[3] + dq[2] * q[0] + dq[3] * q[1],
+            dq[0] * q[3] + dq[1] * q[2] - dq[2] * q[1] + dq[3] * q[0],
+        ];
+        let len2 = p.iter().fold(0.0f32, |s, x| s + x * x);
+        if !(len2 >= f32::MIN_POSITIVE && len2.is_finite()) {
+            break;
+        }
+        let inv = 1.0 / sqrt(len2);
+        q = p.map(|x| x * inv);
+    }
+    q
+}
+
+/// The rotation matrix (rows) of the unit quaternion `(w, x, y, z)`.
+fn rotation(q: [f32; 4]) -> Mat3 {
+    let [w, x, y, z] = q;
+    [
+        [
+            1.0 - 2.0 * (y * y + z * z),
+            2.0 * (x * y - w * z),
+            2.0 * (x * z + w * y),
+        ],
+        [
+            2.0 * (x * y + w * z),
+            1.0 - 2.0 * (x * x + z * z),
+            2.0 * (y * z - w * x),
+        ],
+        [
+            2.0 * (x * z - w * y),
+            2.0 * (y * z + w * x),
+            1.0 - 2.0 * (x * x + y * y),
+        ],
+    ]
+}
+
+/// `R v` for rows-stored `R`.
+#[inline(always)]
+fn mat_vec(m: &Mat3, v: Vec3) -> Vec3 {
+    [dot(m[0], v), dot(m[1], v), dot(m[2], v)]
+}
+
+/// `z = S (D⁻¹ + Φ A_c⁻¹ Φᵀ) S r` into every `q` (two-level when `aggs` is
+/// not empty, else block-Jacobi); returns `rᵀz` summed in node order.
+/// `project(i, v)` applies node `i`'s filter `S`.
+#[inline(always)]
+pub(crate) fn apply(
+    nodes: &[Node],
+    work: &mut [NodeWork],
+    p: &mut Parts<'_>,
+    project: impl Fn(usize, Vec3) -> Vec3,
+) -> f32 {
+    let n_aggs = p.aggs.len();
+    for a in p.aggs.iter_mut() {
+        a.y = [0.0; 6];
+    }
+    // Smoother part and restriction y = Φᵀ S r.
+    for (i, ((n, w), b)) in nodes
+        .iter()
+        .zip(work.iter_mut())
+        .zip(p.blocks.iter())
+        .enumerate()
+    {
+        let r = project(i, w.r);
+        w.q = sym_vec(&b.inv, r);
+        if let Some(a) = p.aggs.get_mut(b.aggregate as usize) {
+            let rl = mat_t_vec(&a.rot, r);
+            let m = cross(sub(n.x0, a.c0), rl);
+            a.y = [
+                a.y[0] + rl[0],
+                a.y[1] + rl[1],
+                a.y[2] + rl[2],
+                a.y[3] + m[0],
+                a.y[4] + m[1],
+                a.y[5] + m[2],
+            ];
+        }
+    }
+    if n_aggs > 0 {
+        coarse_solve(p.aggs, p.coarse);
+    }
+    // Prolongation z += S Φ y, and rᵀz.
+    let mut rz = 0.0f32;
+    for (i, ((n, w), b)) in nodes
+        .iter()
+        .zip(work.iter_mut())
+        .zip(p.blocks.iter())
+        .enumerate()
+    {
+        if let Some(a) = p.aggs.get(b.aggregate as usize) {
+            let t = [a.y[0], a.y[1], a.y[2]];
+            let om = [a.y[3], a.y[4], a.y[5]];
+            let local = add(t, cross(om, sub(n.x0, a.c0)));
+            w.q = add(w.q, project(i, mat_vec(&a.rot, local)));
+        }
+        rz += dot(w.r, w.q);
+    }
+    rz
+}
+
+/// Row `r`, column `c` of the dense coarse matrix of `n` aggregates.
+#[inline(always)]
+fn at(coarse: &[CoarseBlock], n: usize, r: usize, c: usize) -> f32 {
+    coarse
+        .get((r / 6) * n + c / 6)
+        .map_or(0.0, |b| b.m[(r % 6) * 6 + c % 6])
+}
+
+#[inline(always)]
+fn at_mut(coarse: &mut [CoarseBlock], n: usize, r: usize, c: usize) -> Option<&mut f32> {
+    coarse
+        .get_mut((r / 6) * n + c / 6)
+        .map(|b| &mut b.m[(r % 6) * 6 + c % 6])
+}
+
+/// `y ← A_c⁻¹ y` with the Cholesky factor `L` (lower triangle of
+/// `coarse`): forward then backward substitution. A dropped unknown (zero
+/// pivot) gets zero.
+fn coarse_solve(aggs: &mut [Aggregate], coarse: &[CoarseBlock]) {
+    let n = aggs.len();
+    let dim = 6 * n;
+    let get = |aggs: &[Aggregate], k: usize| aggs.get(k / 6).map_or(0.0, |a| a.y[k % 6]);
+    let set = |aggs: &mut [Aggregate], k: usize, v: f32| {
+        if let Some(a) = aggs.get_mut(k / 6) {
+            a.y[k % 6] = v;
+        }
+    };
+    for i in 0..dim {
+        let mut s = get(aggs, i);
+        for k in 0..i {
+            s -= at(coarse, n, i, k) * get(aggs, k);
+        }
+        let d = at(coarse, n, i, i);
+        set(aggs, i, if d > 0.0 { s / d } else { 0.0 });
+    }
+    for i in (0..dim).rev() {
+        let mut s = get(aggs, i);
+        for k in i + 1..dim {
+            s -= at(coarse, n, k, i) * get(aggs, k);
+        }
+        let d = at(coarse, n, i, i);
+        set(aggs, i, if d > 0.0 { s / d } else { 0.0 });
+    }
+}
+
+/// Splits the free nodes into at most `aggs.len()` aggregates by recursive
+/// coordinate bisection of their rest positions (ties broken by node index,
+/// so the result does not depend on the sort), and computes each one's rest
+/// centroid and second moment. Returns the number of aggregates used.
+/// Deterministic: only comparisons and sums in node order.
+pub(crate) fn aggregate(nodes: &[Node], blocks: &mut [NodeBlock], aggs: &mut [Aggregate]) -> usize {
+    let len = nodes.len().min(blocks.len());
+    let blocks = &mut blocks[..len];
+    let mut free = 0usize;
+    for (i, b) in blocks.iter_mut().enumerate() {
+        b.aggregate = NONE;
+        b.order = i as u32;
+    }
+    // Free nodes first, in node order (a stable partition by swapping the
+    // order fields).
+    for i in 0..len {
+        if nodes[i].flags & FIXED == 0 {
+            let (o_free, o_i) = (blocks[free].order, blocks[i].order);
+            blocks[free].order = o_i;
+            blocks[i].order = o_free;
+            free += 1;
+        }
+    }
+    // The swaps above keep free nodes in node order but scramble the rest;
+    // only the free part matters.
+    let count = aggregates_for(free, aggs.len());
+    if free == 0 || count == 0 {
+        return 0;
+    }
+    bisect(nodes, &mut blocks[..free], 0, count);
+    // Back to node order: the order fields are a permutation.
+    blocks.sort_unstable_by_key(|b| b.order);
+    let aggs = &mut aggs[..count];
+    for a in aggs.iter_mut() {
+        *a = Aggregate::EMPTY;
+    }
+    // Centroids: Σ m x₀ / Σ m, in node order (the mass summed in `s0[0][0]`
+    // until the division).
+    for (n, b) in nodes.iter().zip(blocks.iter()) {
+        if let Some(a) = aggs.get_mut(b.aggregate as usize) {
+            a.c0 = add(a.c0, n.x0.map(|x| x * n.mass));
+            a.s0[0][0] += n.mass;
+        }
+    }
+    for a in aggs.iter_mut() {
+        let m = a.s0[0][0];
+        a.c0 = if m > 0.0 {
+            a.c0.map(|x| x / m)
+        } else {
+            [0.0; 3]
+        };
+        a.s0 = [[0.0; 3]; 3];
+    }
+    for (n, b) in nodes.iter().zip(blocks.iter()) {
+        if let Some(a) = aggs.get_mut(b.aggregate as usize) {
+            let p = sub(n.x0, a.c0);
+            for (row, pk) in a.s0.iter_mut().zip(p) {
+                for (s, pj) in row.iter_mut().zip(p) {
+                    *s += n.mass * pk * pj;
+                }
+            }
+        }
+    }
+    count
+}
+
+/// Assigns aggregates `first .. first + parts` to `slots` (whose `order`
+/// fields name nodes): splits at the median of the longest axis of their
+/// bounding box, in proportion to the parts on each side.
+fn bisect(nodes: &[Node], slots: &mut [NodeBlock], first: usize, parts: usize) {
+    if parts <= 1 || slots.len() <= 1 {
+        for s in slots.iter_mut() {
+            s.aggregate = first as u32;
+        }
+        return;
+    }
+    let pos = |s: &NodeBlock| nodes.get(s.order as usize).map_or([0.0; 3], |n| n.x0);
+    let (mut lo, mut hi) = ([f32::MAX; 3], [f32::MIN; 3]);
+    for s in slots.iter() {
+        let p = pos(s);
+        for k in 0..3 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    let ext = sub(hi, lo);
+    let axis = if ext[0] >= ext[1] && ext[0] >= ext[2] {
+        0
+    } else if ext[1] >= ext[2] {
+        1
+    } else {
+        2
+    };
+    let left = parts / 2;
+    let mid = slots.len() * left / parts;
+    let mid = mid.clamp(1, slots.len() - 1);
+    slots.select_nth_unstable_by(mid, |a, b| {
+        pos(a)[axis]
+            .total_cmp(&pos(b)[axis])
+            .then(a.order.cmp(&b.order))
+    });
+    let (l, r) = slots.split_at_mut(mid);
+    bisect(nodes, l, first, left);
+    bisect(nodes, r, first + left, parts - left);
+}
+
+/// Assembles the Galerkin coarse operator `Φᵀ A Φ` with the aggregates'
+/// current rotations and the elements' current gradients, and factorises
+/// it (Cholesky, lower triangle, in place). An unknown whose pivot falls to
+/// round-off of its diagonal (the rotations of an aggregate of one node, or
+/// of nodes on a line) is dropped: its row and column are zeroed.
+pub(crate) fn factor(
+    per_young: [f32; 2],
+    elems: &[ElementBlock],
+    count: usize,
+    nodes: &[Node],
+    p: &mut Parts<'_>,
+    mass_coef: f32,
+    k_coef: f32,
+) {
+    let n = p.aggs.len();
+    let Some(coarse) = p.coarse.get_mut(..n * n) else {
+        return;
+    };
+    for b in coarse.iter_mut() {
+        *b = CoarseBlock::EMPTY;
+    }
+    let blocks = &*p.blocks;
+    let aggs = &*p.aggs;
+    // Node i's modes: Φᵢ = R [I, −[pᵢ]×].
+    let frame = |i: usize| -> Option<(usize, Mat3, Mat3)> {
+        let b = blocks.get(i)?;
+        let a = aggs.get(b.aggregate as usize)?;
+        let node = nodes.get(i)?;
+        Some((b.aggregate as usize, a.rot, skew(sub(node.x0, a.c0))))
+    };
+    // Adds the 6×6 `[I; [pᵢ]×] L [I, −[p_j]×]` for L = Rᵢᵀ K_ij R_j.
+    let mut add_block = |ai: usize, aj: usize, l: &Mat3, pi: &Mat3, pj: &Mat3| {
+        let Some(blk) = coarse.get_mut(ai * n + aj) else {
+            return;
+        };
+        let lp = mat_mul(l, pj); // L [p_j]×
+        let pl = mat_mul(pi, l); // [pᵢ]× L
+        let plp = mat_mul(pi, &lp); // [pᵢ]× L [p_j]×
+        for r in 0..3 {
+            for c in 0..3 {
+                blk.m[r * 6 + c] += l[r][c];
+                blk.m[r * 6 + 3 + c] -= lp[r][c];
+                blk.m[(3 + r) * 6 + c] += pl[r][c];
+                blk.m[(3 + r) * 6 + 3 + c] -= plp[r][c];
+            }
+        }
+    };
+    each_element(per_young, elems, count, |ids, g, [l, m]| {
+        let f: [Option<(usize, Mat3, Mat3)>; 4] = ids.map(frame);
+        for (i, fi) in f.iter().enumerate() {
+            let Some((ai, ri, pi)) = fi else { continue };
+            for (j, fj) in f.iter().enumerate() {
+                let Some((aj, rj, pj)) = fj else { continue };
+                let (gi, gj) = (g[i], g[j]);
+                let gg = m * dot(gi, gj);
+                let k: Mat3 = core::array::from_fn(|r| {
+                    core::array::from_fn(|c| {
+                        k_coef
+                            * (l * gi[r] * gj[c]
+                                + m * gj[r] * gi[c]
+                                + if r == c { gg } else { 0.0 })
+                    })
+                });
+                let lmat = mat_mul(&transpose(ri), &mat_mul(&k, rj));
+                add_block(*ai, *aj, &lmat, pi, pj);
+            }
+        }
+    });
+    // Mass: (1 + h α_M) m Φᵢᵀ Φᵢ = c m [I, −[p]×; [p]×, −[p]×[p]×].
+    for (i, node) in nodes.iter().enumerate() {
+        if let Some((a, _, pi)) = frame(i) {
+            let eye: Mat3 = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+            let cm = mass_coef * node.mass;
+            let l = eye.map(|row| row.map(|x| x * cm));
+            add_block(a, a, &l, &pi, &pi);
+        }
+    }
+    cholesky(coarse, n);
+}
+
+/// In-place Cholesky of the dense symmetric `6n × 6n` matrix (lower
+/// triangle read and written). A pivot at or below `dim · ε` of its
+/// original diagonal drops its unknown.
+fn cholesky(coarse: &mut [CoarseBlock], n: usize) {
+    let dim = 6 * n;
+    for j in 0..dim {
+        let orig = at(coarse, n, j, j);
+        let mut d = orig;
+        for k in 0..j {
+            let l = at(coarse, n, j, k);
+            d -= l * l;
+        }
+        let floor = orig.abs() * (dim as f32) * f32::EPSILON;
+        let ok = d > floor && d.is_finite();
+        let ljj = if ok { sqrt(d) } else { 0.0 };
+        if let Some(x) = at_mut(coarse, n, j, j) {
+            *x = ljj;
+        }
+        for i in j + 1..dim {
+            let mut s = at(coarse, n, i, j);
+            for k in 0..j {
+                s -= at(coarse, n, i, k) * at(coarse, n, j, k);
+            }
+            if let Some(x) = at_mut(coarse, n, i, j) {
+                *x = if ok { s / ljj } else { 0.0 };
+            }
+        }
+    }
+}

@@ -1,0 +1,99 @@
+//! No energy from truncation: a free, undamped body whose elements stay
+//! uninverted must not gain energy, whatever the solver budget, the warm
+//! start, the time step and the preconditioner.
+
+use corofem::{Material, Method, Preconditioner, Settings, VecScene};
+use corofem_host_tests::{shared_mesh, CoreMesh, Rng};
+
+/// Kinetic energy `½ Σ m v²` (J), in f64.
+fn kinetic(s: &VecScene) -> f64 {
+    (0..s.node_count() as u32)
+        .map(|i| {
+            let m = f64::from(s.mass(i).unwrap_or(0.0));
+            let v = s.velocity(i).unwrap_or([0.0; 3]).map(f64::from);
+            0.5 * m * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+        })
+        .sum()
+}
+
+/// The largest total energy over `steps` steps relative to the first, for
+/// a free liver set deforming and spinning.
+fn energy_growth(mesh: &CoreMesh, settings: Settings, steps: usize) -> f64 {
+    let mut scene = mesh.scene(&Material {
+        young: 2.0e4,
+        poisson: 0.35,
+        density: 1000.0,
+    });
+    scene.set_settings(settings).unwrap();
+    let mut rng = Rng::new(11);
+    let v: Vec<[f32; 3]> = mesh
+        .nodes
+        .iter()
+        .map(|p| {
+            // A spin about z plus random deforming velocities (0.05 m/s).
+            [
+                -p[1] * 0.5 + 0.05 * rng.range(-1.0, 1.0) as f32,
+                p[0] * 0.5 + 0.05 * rng.range(-1.0, 1.0) as f32,
+                0.05 * rng.range(-1.0, 1.0) as f32,
+            ]
+        })
+        .collect();
+    scene.set_velocities(&v).unwrap();
+    let mut first = None;
+    let mut worst = 0.0f64;
+    for _ in 0..steps {
+        let ke = kinetic(&scene);
+        let st = scene.step().expect("a free undamped body steps");
+        assert_eq!(st.inverted, 0, "the test's motion inverts no element");
+        let e = ke + f64::from(st.elastic_energy);
+        let e0 = *first.get_or_insert(e);
+        worst = worst.max(e / e0 - 1.0);
+    }
+    worst
+}
+
+#[test]
+#[ignore = "fails: the lumped-mass preconditioner with 1 or 2 CG iterations at dt = 50 ms \
+            gains up to 1.5e-3 of the energy (block-jacobi and two-level gain none); \
+            run with --ignored --nocapture for the list"]
+fn a_free_body_never_gains_energy_from_a_truncated_solve() {
+    let Some(mesh) = shared_mesh("sofa_liver.tetmesh") else {
+        return;
+    };
+    let mut worst = 0.0f64;
+    let mut gains = Vec::new();
+    for method in [Method::Qr, Method::Polar] {
+        for pre in Preconditioner::VARIANTS {
+            for warm_start in [false, true] {
+                for cg_iterations in [1, 2, 5, 20, 200] {
+                    for dt in [1.0e-3f32, 1.0e-2, 5.0e-2] {
+                        let settings = Settings {
+                            method,
+                            dt,
+                            cg_iterations,
+                            warm_start,
+                            preconditioner: pre,
+                            gravity: [0.0; 3],
+                            ..Settings::default()
+                        };
+                        let steps = (0.2 / dt).round() as usize;
+                        let growth = energy_growth(&mesh, settings, steps);
+                        worst = worst.max(growth);
+                        // Round-off: the energy is a sum of ~10³ f32 terms
+                        // recomputed each step (relative error ~ε√n ≈ 4e-6);
+                        // 1e-4 leaves room and still catches any real gain.
+                        if !(growth < 1.0e-4) {
+                            let line = format!(
+                                "{method:?} {pre:?} warm {warm_start} cg {cg_iterations} dt {dt}: energy grew by {growth:.2e}"
+                            );
+                            eprintln!("{line}");
+                            gains.push(line);
+                        }
+                    }
+                }
+            }
+        }
+    }
+    eprintln!("largest relative energy growth: {worst:.2e}");
+    assert!(gains.is_empty(), "{} settings gain energy", gains.len());
+}
