@@ -37,7 +37,7 @@
 //! iterations, never correctness.
 
 use crate::element::ElementBlock;
-use crate::math::{add, cross, dot, neg, scale, sqrt, sub, Mat3, Vec3};
+use crate::math::{add, cross, dot, mat_vec, neg, scale, sqrt, sub, Mat3, Vec3};
 use crate::storage::{Node, NodeWork, FIXED};
 use crate::ELEMENTS_PER_BLOCK as LANES;
 
@@ -238,7 +238,7 @@ fn each_element(
 }
 
 /// Sets every node's `inv` to the inverse of its 3×3 block of
-/// `A = mass_coef M + k_coef K` plus `extra(i)` on the diagonal (the tool's
+/// `A = mass_coef M + k_coef K` plus `extra(node)` on the diagonal (the tool's
 /// spring); zero on fixed nodes. A block that cannot be inverted (not
 /// reachable with a validated scene) falls back to the inverse of its
 /// diagonal's mass part.
@@ -251,7 +251,7 @@ pub(crate) fn node_blocks(
     blocks: &mut [NodeBlock],
     mass_coef: f32,
     k_coef: f32,
-    extra: impl Fn(usize, &Node) -> f32,
+    extra: impl Fn(&Node) -> f32,
 ) {
     for b in blocks.iter_mut() {
         b.inv = [0.0; 6];
@@ -271,12 +271,12 @@ pub(crate) fn node_blocks(
             }
         }
     });
-    for (i, (n, b)) in nodes.iter().zip(blocks.iter_mut()).enumerate() {
+    for (n, b) in nodes.iter().zip(blocks.iter_mut()) {
         if n.flags & FIXED != 0 {
             b.inv = [0.0; 6];
             continue;
         }
-        let p = mass_coef * n.mass + extra(i, n);
+        let p = mass_coef * n.mass + extra(n);
         let mut s = b.inv.map(|x| k_coef * x);
         s[0] += p;
         s[1] += p;
@@ -380,12 +380,6 @@ fn rotation(q: [f32; 4]) -> Mat3 {
             1.0 - 2.0 * (x * x + y * y),
         ],
     ]
-}
-
-/// `R v` for rows-stored `R`.
-#[inline(always)]
-fn mat_vec(m: &Mat3, v: Vec3) -> Vec3 {
-    [dot(m[0], v), dot(m[1], v), dot(m[2], v)]
 }
 
 /// `z = S (D⁻¹ + Φ A_c⁻¹ Φᵀ) S r` into every `q` (two-level when `aggs` is
@@ -498,19 +492,23 @@ fn coarse_solve(aggs: &mut [Aggregate], coarse: &[CoarseBlock]) {
 /// Deterministic: only comparisons and sums in node order.
 pub(crate) fn aggregate(nodes: &[Node], blocks: &mut [NodeBlock], aggs: &mut [Aggregate]) -> usize {
     let len = nodes.len().min(blocks.len());
-    let blocks = &mut blocks[..len];
+    let blocks = blocks.get_mut(..len).unwrap_or_default();
     let mut free = 0usize;
     for (i, b) in blocks.iter_mut().enumerate() {
         b.aggregate = NONE;
         b.order = i as u32;
     }
-    // Free nodes first, in node order (a stable partition by swapping the
-    // order fields).
-    for i in 0..len {
-        if nodes[i].flags & FIXED == 0 {
-            let (o_free, o_i) = (blocks[free].order, blocks[i].order);
-            blocks[free].order = o_i;
-            blocks[i].order = o_free;
+    // Free nodes first, in node order: swapping the order fields of slots
+    // `free` and `i` (slot `i` still holds order `i` when it is reached).
+    for (i, n) in nodes.iter().enumerate().take(len) {
+        if n.flags & FIXED == 0 {
+            let displaced = blocks.get(free).map_or(0, |b| b.order);
+            if let Some(b) = blocks.get_mut(free) {
+                b.order = i as u32;
+            }
+            if let Some(b) = blocks.get_mut(i) {
+                b.order = displaced;
+            }
             free += 1;
         }
     }
@@ -520,7 +518,7 @@ pub(crate) fn aggregate(nodes: &[Node], blocks: &mut [NodeBlock], aggs: &mut [Ag
     if free == 0 || count == 0 {
         return 0;
     }
-    bisect(nodes, &mut blocks[..free], 0, count);
+    bisect(nodes, blocks.get_mut(..free).unwrap_or_default(), 0, count);
     // Back to node order: the order fields are a permutation.
     blocks.sort_unstable_by_key(|b| b.order);
     let aggs = &mut aggs[..count];

@@ -289,7 +289,7 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
     // projection) go into the spent CG scratch `d` and `q`, and the state is
     // written only if they and the tool force are all finite.
     if outcome.overflow {
-        return Err(refuse(work));
+        return Err(StepError::Diverged);
     }
     // A preconditioner other than the mass does not keep the momentum of an
     // isolated body in its iterates: the rigid part of the residual is
@@ -332,7 +332,7 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
         w.q = v;
     }
     if probe != 0.0 || !is_finite3(tool_force) {
-        return Err(refuse(work));
+        return Err(StepError::Diverged);
     }
     for (n, w) in nodes.iter_mut().zip(work.iter()) {
         n.u = w.d;
@@ -359,16 +359,6 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
             f32::NAN
         },
     })
-}
-
-/// Refuses the step: its solution, which would be the next step's warm
-/// start, is dropped, so that a refused step leaves no guess behind.
-#[cold]
-fn refuse(work: &mut [NodeWork]) -> StepError {
-    for w in work.iter_mut() {
-        w.x = [0.0; 3];
-    }
-    StepError::Diverged
 }
 
 /// The filter `S` of node `i`: the ground's normal removed from a held
@@ -497,7 +487,7 @@ fn prepare(
         pre.blocks,
         mass_coef,
         k_coef,
-        |_i, _n| {
+        |_n| {
             #[cfg(feature = "tool")]
             if _n.flags & GRABBED != 0 && tool.active() {
                 return h * h * tool.k_node;
