@@ -72,16 +72,19 @@ impl Default for NodeBlock {
     }
 }
 
-/// An aggregate's slot (128 bytes): opaque, named only to provide memory.
+/// An aggregate's slot (176 bytes): opaque, named only to provide memory.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Aggregate {
     /// Mass-weighted rest centroid `c₀` (m).
     pub(crate) c0: Vec3,
     /// Rest second moment `Σ m p pᵀ` (kg m²).
     pub(crate) s0: Mat3,
-    /// Current rotation `R_a` (rows), and its quaternion (the warm start of
-    /// the next step's search).
+    /// Current rotation `R_a` (rows), and its quaternion `q_step`.
     pub(crate) rot: Mat3,
+    pub(crate) q_step: [f32; 4],
+    /// The rotation of the last step that was applied (the warm start of
+    /// the next step's search): a refused step leaves it as it was, so that
+    /// what follows does not depend on it.
     pub(crate) q: [f32; 4],
     /// `Σ m u pᵀ`, then `S₀ + Σ m u pᵀ = Σ m (x − c) pᵀ`.
     pub(crate) apq: Mat3,
@@ -95,6 +98,7 @@ impl Aggregate {
         c0: [0.0; 3],
         s0: [[0.0; 3]; 3],
         rot: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+        q_step: [1.0, 0.0, 0.0, 0.0],
         q: [1.0, 0.0, 0.0, 0.0],
         apq: [[0.0; 3]; 3],
         y: [0.0; 6],
@@ -306,7 +310,15 @@ pub(crate) fn rotations(nodes: &[Node], blocks: &[NodeBlock], aggs: &mut [Aggreg
     for a in aggs.iter_mut() {
         let q = extract_rotation(&a.apq, a.q);
         a.rot = rotation(q);
-        a.q = q;
+        a.q_step = q;
+    }
+}
+
+/// Keeps the step's rotations as the warm start of the next one: called
+/// once the step is applied.
+pub(crate) fn commit_rotations(aggs: &mut [Aggregate]) {
+    for a in aggs.iter_mut() {
+        a.q = a.q_step;
     }
 }
 
@@ -702,5 +714,17 @@ fn cholesky(coarse: &mut [CoarseBlock], n: usize) {
                 *x = if ok { s / ljj } else { 0.0 };
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn slot_sizes_are_as_documented() {
+        assert_eq!(core::mem::size_of::<NodeBlock>(), 32);
+        assert_eq!(core::mem::size_of::<Aggregate>(), 176);
+        assert_eq!(core::mem::size_of::<CoarseBlock>(), 144);
     }
 }

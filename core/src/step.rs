@@ -346,6 +346,8 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
             }
         }
     }
+    #[cfg(feature = "two-level")]
+    crate::precond::commit_rotations(pre.aggs);
     hdr.time += f64::from(h);
     Ok(StepStats {
         cg_iterations: outcome.iterations,

@@ -1083,13 +1083,27 @@ fn refused_steps_are_as_if_never_asked() {
                 );
                 Ok("refused, then bit-identical".into())
             } else {
-                let mut fresh = untouched.clone();
-                let (a, b) = (s.step(), fresh.step());
-                ensure!(
-                    a.is_ok() == b.is_ok(),
-                    "after a refused step: {a:?}, without it: {b:?}"
-                );
-                ensure!(all_finite(&s), "non-finite state");
+                // With a warm start or `Polar`, the refused step leaves the
+                // solver a different guess (its own solution; the polar
+                // rotations one iteration further at the same positions), so
+                // the future is not bit-identical. On the light bodies of this
+                // test, `h² K` dwarfs `M` beyond f32's 24 bits and whether
+                // the next truncated solve overflows depends on the guess's
+                // round-off, either way round (a fresh scene refused where
+                // the recovered one stepped). What holds is that the scene
+                // still steps safely: refused without a trace, or applied
+                // finite.
+                let before = fingerprint(&s);
+                match s.step() {
+                    Ok(_) => ensure!(all_finite(&s), "non-finite state"),
+                    Err(e) => {
+                        ensure!(e == StepError::Diverged, "{e:?}");
+                        ensure!(
+                            fingerprint(&s) == before,
+                            "a second refused step changed the state"
+                        );
+                    }
+                }
                 Ok("refused, then recovered".into())
             }
         },
