@@ -151,7 +151,8 @@ pub use math::Vec3;
 pub use mesh_gen::BoxMesh;
 #[cfg(feature = "two-level")]
 pub use precond::{
-    aggregates_for, Aggregate, CoarseBlock, NodeBlock, MAX_AGGREGATES, NODES_PER_AGGREGATE,
+    aggregates_for, coarse_blocks_for, Aggregate, CoarseBlock, NodeBlock, MAX_AGGREGATES,
+    NODES_PER_AGGREGATE,
 };
 #[cfg(feature = "alloc")]
 pub use scene::VecScene;

@@ -154,6 +154,20 @@ pub const fn aggregates_for(free_nodes: usize, capacity: usize) -> usize {
     }
 }
 
+/// The coarse blocks the factor of `aggs` aggregates takes: the lower
+/// block triangle of a symmetric `aggs × aggs` matrix of 6×6 blocks,
+/// `aggs (aggs + 1) / 2`.
+#[must_use]
+pub const fn coarse_blocks_for(aggs: usize) -> usize {
+    aggs.saturating_mul(aggs.saturating_add(1)) / 2
+}
+
+/// The slot of block `(i, j)`, `j ≤ i`, of the packed lower block triangle.
+#[inline(always)]
+const fn packed(i: usize, j: usize) -> usize {
+    i * (i + 1) / 2 + j
+}
+
 /// The slices the preconditioners work on.
 pub(crate) struct Parts<'a> {
     pub(crate) blocks: &'a mut [NodeBlock],
@@ -397,6 +411,11 @@ fn rotation(q: [f32; 4]) -> Mat3 {
 /// `z = S (D⁻¹ + Φ A_c⁻¹ Φᵀ) S r` into every `q` (two-level when `aggs` is
 /// not empty, else block-Jacobi); returns `rᵀz` summed in node order.
 /// `project(i, v)` applies node `i`'s filter `S`.
+///
+/// With aggregates, node blocks are held in their aggregate's frame
+/// (`D = R_a D_local R_aᵀ`, prepared with the factor), so that both parts
+/// work on `R_aᵀ S r` and one rotation brings their sum back:
+/// `z = S R_a (D_local⁻¹ R_aᵀ S r + t + ω × p)`.
 #[inline(always)]
 pub(crate) fn apply(
     nodes: &[Node],
@@ -404,21 +423,28 @@ pub(crate) fn apply(
     p: &mut Parts<'_>,
     project: impl Fn(usize, Vec3) -> Vec3,
 ) -> f32 {
-    let n_aggs = p.aggs.len();
+    if p.aggs.is_empty() {
+        let mut rz = 0.0f32;
+        for (i, (w, b)) in work.iter_mut().zip(p.blocks.iter()).enumerate() {
+            w.q = project(i, sym_vec(&b.inv, project(i, w.r)));
+            rz += dot(w.r, w.q);
+        }
+        return rz;
+    }
     for a in p.aggs.iter_mut() {
         a.y = [0.0; 6];
     }
-    // Smoother part and restriction y = Φᵀ S r.
+    // Restriction y = Φᵀ S r, and the local smoother part into q.
     for (i, ((n, w), b)) in nodes
         .iter()
         .zip(work.iter_mut())
         .zip(p.blocks.iter())
         .enumerate()
     {
-        let r = project(i, w.r);
-        w.q = sym_vec(&b.inv, r);
+        w.q = [0.0; 3];
         if let Some(a) = p.aggs.get_mut(b.aggregate as usize) {
-            let rl = mat_t_vec(&a.rot, r);
+            let rl = mat_t_vec(&a.rot, project(i, w.r));
+            w.q = sym_vec(&b.inv, rl);
             let m = cross(sub(n.x0, a.c0), rl);
             a.y = [
                 a.y[0] + rl[0],
@@ -430,10 +456,8 @@ pub(crate) fn apply(
             ];
         }
     }
-    if n_aggs > 0 {
-        coarse_solve(p.aggs, p.coarse);
-    }
-    // Prolongation z += S Φ y, and rᵀz.
+    coarse_solve(p.aggs, p.coarse);
+    // Prolongation, and rᵀz.
     let mut rz = 0.0f32;
     for (i, ((n, w), b)) in nodes
         .iter()
@@ -444,56 +468,113 @@ pub(crate) fn apply(
         if let Some(a) = p.aggs.get(b.aggregate as usize) {
             let t = [a.y[0], a.y[1], a.y[2]];
             let om = [a.y[3], a.y[4], a.y[5]];
-            let local = add(t, cross(om, sub(n.x0, a.c0)));
-            w.q = add(w.q, project(i, mat_vec(&a.rot, local)));
+            let local = add(add(w.q, t), cross(om, sub(n.x0, a.c0)));
+            w.q = project(i, mat_vec(&a.rot, local));
         }
         rz += dot(w.r, w.q);
     }
     rz
 }
 
-/// Row `r`, column `c` of the dense coarse matrix of `n` aggregates.
+/// `m v` for a row-major 6×6 `m`.
 #[inline(always)]
-fn at(coarse: &[CoarseBlock], n: usize, r: usize, c: usize) -> f32 {
-    coarse
-        .get((r / 6) * n + c / 6)
-        .map_or(0.0, |b| b.m[(r % 6) * 6 + c % 6])
+fn mv6(m: &[f32; 36], v: &[f32; 6]) -> [f32; 6] {
+    core::array::from_fn(|r| {
+        let row = &m[r * 6..r * 6 + 6];
+        row[0] * v[0]
+            + row[1] * v[1]
+            + row[2] * v[2]
+            + row[3] * v[3]
+            + row[4] * v[4]
+            + row[5] * v[5]
+    })
 }
 
+/// `mᵀ v` for a row-major 6×6 `m`.
 #[inline(always)]
-fn at_mut(coarse: &mut [CoarseBlock], n: usize, r: usize, c: usize) -> Option<&mut f32> {
-    coarse
-        .get_mut((r / 6) * n + c / 6)
-        .map(|b| &mut b.m[(r % 6) * 6 + c % 6])
+fn mtv6(m: &[f32; 36], v: &[f32; 6]) -> [f32; 6] {
+    let mut out = [0.0f32; 6];
+    for (row, vr) in m.chunks_exact(6).zip(v) {
+        for (o, x) in out.iter_mut().zip(row) {
+            *o += x * vr;
+        }
+    }
+    out
 }
 
-/// `y ← A_c⁻¹ y` with the Cholesky factor `L` (lower triangle of
-/// `coarse`): forward then backward substitution. A dropped unknown (zero
-/// pivot) gets zero.
+/// `L⁻¹ v` for the lower triangle of `l`; an unknown with a zero pivot
+/// (dropped) gets zero.
+#[inline(always)]
+fn lower_solve(l: &[f32; 36], mut v: [f32; 6]) -> [f32; 6] {
+    for r in 0..6 {
+        let mut s = v[r];
+        for c in 0..r {
+            s -= l[r * 6 + c] * v[c];
+        }
+        let d = l[r * 6 + r];
+        v[r] = if d > 0.0 { s / d } else { 0.0 };
+    }
+    v
+}
+
+/// `L⁻ᵀ v` for the lower triangle of `l`, zero for dropped unknowns.
+#[inline(always)]
+fn lower_t_solve(l: &[f32; 36], mut v: [f32; 6]) -> [f32; 6] {
+    for r in (0..6).rev() {
+        let mut s = v[r];
+        for c in r + 1..6 {
+            s -= l[c * 6 + r] * v[c];
+        }
+        let d = l[r * 6 + r];
+        v[r] = if d > 0.0 { s / d } else { 0.0 };
+    }
+    v
+}
+
+/// `y ← A_c⁻¹ y` with the block Cholesky factor `L` (packed lower block
+/// triangle of `coarse`): forward substitution by block rows, then
+/// backward substitution as updates by block rows (`y_j −= L_ijᵀ y_i`), so
+/// that both read `L` in slot order.
 fn coarse_solve(aggs: &mut [Aggregate], coarse: &[CoarseBlock]) {
     let n = aggs.len();
-    let dim = 6 * n;
-    let get = |aggs: &[Aggregate], k: usize| aggs.get(k / 6).map_or(0.0, |a| a.y[k % 6]);
-    let set = |aggs: &mut [Aggregate], k: usize, v: f32| {
-        if let Some(a) = aggs.get_mut(k / 6) {
-            a.y[k % 6] = v;
+    for i in 0..n {
+        let Some(row) = coarse.get(packed(i, 0)..packed(i, 0) + i + 1) else {
+            return;
+        };
+        let Some((d, off)) = row.split_last() else {
+            continue;
+        };
+        let mut s = aggs.get(i).map_or([0.0; 6], |a| a.y);
+        for (l, a) in off.iter().zip(aggs.iter()) {
+            let p = mv6(&l.m, &a.y);
+            for (x, y) in s.iter_mut().zip(p) {
+                *x -= y;
+            }
         }
-    };
-    for i in 0..dim {
-        let mut s = get(aggs, i);
-        for k in 0..i {
-            s -= at(coarse, n, i, k) * get(aggs, k);
+        if let Some(a) = aggs.get_mut(i) {
+            a.y = lower_solve(&d.m, s);
         }
-        let d = at(coarse, n, i, i);
-        set(aggs, i, if d > 0.0 { s / d } else { 0.0 });
     }
-    for i in (0..dim).rev() {
-        let mut s = get(aggs, i);
-        for k in i + 1..dim {
-            s -= at(coarse, n, k, i) * get(aggs, k);
+    for i in (0..n).rev() {
+        let Some(row) = coarse.get(packed(i, 0)..packed(i, 0) + i + 1) else {
+            return;
+        };
+        let Some((d, off)) = row.split_last() else {
+            continue;
+        };
+        let yi = match aggs.get_mut(i) {
+            Some(a) => {
+                a.y = lower_t_solve(&d.m, a.y);
+                a.y
+            }
+            None => continue,
+        };
+        for (l, a) in off.iter().zip(aggs.iter_mut()) {
+            let p = mtv6(&l.m, &yi);
+            for (x, y) in a.y.iter_mut().zip(p) {
+                *x -= y;
+            }
         }
-        let d = at(coarse, n, i, i);
-        set(aggs, i, if d > 0.0 { s / d } else { 0.0 });
     }
 }
 
@@ -607,11 +688,13 @@ fn bisect(nodes: &[Node], slots: &mut [NodeBlock], first: usize, parts: usize) {
     bisect(nodes, r, first + left, parts - left);
 }
 
-/// Assembles the Galerkin coarse operator `Φᵀ A Φ` with the aggregates'
-/// current rotations and the elements' current gradients, and factorises
-/// it (Cholesky, lower triangle, in place). An unknown whose pivot falls to
-/// round-off of its diagonal (the rotations of an aggregate of one node, or
-/// of nodes on a line) is dropped: its row and column are zeroed.
+/// Prepares the two-level preconditioner at the current state: turns every
+/// node block (`node_blocks`, world frame) into its aggregate's frame,
+/// `D_local = R_aᵀ D R_a`, then assembles the Galerkin coarse operator
+/// `Φᵀ A Φ` with the aggregates' rotations and the elements' gradients, and
+/// factorises it (block Cholesky, in place). An unknown whose pivot falls
+/// to round-off of its diagonal (the rotations of an aggregate of one node,
+/// or of nodes on a line) is dropped: its column of the factor is zero.
 pub(crate) fn factor(
     per_young: [f32; 2],
     elems: &[ElementBlock],
@@ -622,14 +705,23 @@ pub(crate) fn factor(
     k_coef: f32,
 ) {
     let n = p.aggs.len();
-    let Some(coarse) = p.coarse.get_mut(..n * n) else {
+    let Some(coarse) = p.coarse.get_mut(..coarse_blocks_for(n)) else {
         return;
     };
     for b in coarse.iter_mut() {
         *b = CoarseBlock::EMPTY;
     }
-    let blocks = &*p.blocks;
     let aggs = &*p.aggs;
+    for b in p.blocks.iter_mut() {
+        if let Some(a) = aggs.get(b.aggregate as usize) {
+            // D⁻¹ turns like D: (Rᵀ D R)⁻¹ = Rᵀ D⁻¹ R.
+            let [xx, yy, zz, xy, yz, zx] = b.inv;
+            let d = [[xx, xy, zx], [xy, yy, yz], [zx, yz, zz]];
+            let l = mat_mul(&transpose(&a.rot), &mat_mul(&d, &a.rot));
+            b.inv = [l[0][0], l[1][1], l[2][2], l[0][1], l[1][2], l[2][0]];
+        }
+    }
+    let blocks = &*p.blocks;
     // Node i's modes: Φᵢ = R [I, −[pᵢ]×].
     let frame = |i: usize| -> Option<(usize, Mat3, Mat3)> {
         let b = blocks.get(i)?;
@@ -637,9 +729,13 @@ pub(crate) fn factor(
         let node = nodes.get(i)?;
         Some((b.aggregate as usize, a.rot, skew(sub(node.x0, a.c0))))
     };
-    // Adds the 6×6 `[I; [pᵢ]×] L [I, −[p_j]×]` for L = Rᵢᵀ K_ij R_j.
+    // Adds the 6×6 `[I; [pᵢ]×] L [I, −[p_j]×]` for L = Rᵢᵀ K_ij R_j to block
+    // (aᵢ, a_j) of the lower block triangle (the upper one is its transpose).
     let mut add_block = |ai: usize, aj: usize, l: &Mat3, pi: &Mat3, pj: &Mat3| {
-        let Some(blk) = coarse.get_mut(ai * n + aj) else {
+        if aj > ai {
+            return;
+        }
+        let Some(blk) = coarse.get_mut(packed(ai, aj)) else {
             return;
         };
         let lp = mat_mul(l, pj); // L [p_j]×
@@ -660,6 +756,9 @@ pub(crate) fn factor(
             let Some((ai, ri, pi)) = fi else { continue };
             for (j, fj) in f.iter().enumerate() {
                 let Some((aj, rj, pj)) = fj else { continue };
+                if aj > ai {
+                    continue;
+                }
                 let (gi, gj) = (g[i], g[j]);
                 let gg = m * dot(gi, gj);
                 let k: Mat3 = core::array::from_fn(|r| {
@@ -687,31 +786,84 @@ pub(crate) fn factor(
     cholesky(coarse, n);
 }
 
-/// In-place Cholesky of the dense symmetric `6n × 6n` matrix (lower
-/// triangle read and written). A pivot at or below `dim · ε` of its
-/// original diagonal drops its unknown.
+/// `a −= b cᵀ` for row-major 6×6 blocks.
+fn sub_abt(a: &mut [f32; 36], b: &[f32; 36], c: &[f32; 36]) {
+    for (r, arow) in a.chunks_exact_mut(6).enumerate() {
+        let brow = &b[r * 6..r * 6 + 6];
+        for (x, crow) in arow.iter_mut().zip(c.chunks_exact(6)) {
+            *x -= brow[0] * crow[0]
+                + brow[1] * crow[1]
+                + brow[2] * crow[2]
+                + brow[3] * crow[3]
+                + brow[4] * crow[4]
+                + brow[5] * crow[5];
+        }
+    }
+}
+
+/// In-place block Cholesky of the symmetric matrix of `n × n` 6×6 blocks
+/// whose lower block triangle `coarse` holds (`A = L Lᵀ`, right-looking by
+/// block columns). Inside a diagonal block, a pivot at or below
+/// `6 n · ε` of its original diagonal drops its unknown: its column of `L`
+/// is zero, and the solves give it zero.
 fn cholesky(coarse: &mut [CoarseBlock], n: usize) {
-    let dim = 6 * n;
-    for j in 0..dim {
-        let orig = at(coarse, n, j, j);
-        let mut d = orig;
+    let floor = (6 * n) as f32 * f32::EPSILON;
+    for j in 0..n {
+        // Diagonal block: A_jj − Σ_k L_jk L_jkᵀ, then its own Cholesky.
+        let Some(mut d) = coarse.get(packed(j, j)).map(|b| b.m) else {
+            return;
+        };
+        let orig: [f32; 6] = core::array::from_fn(|r| d[r * 6 + r]);
         for k in 0..j {
-            let l = at(coarse, n, j, k);
-            d -= l * l;
-        }
-        let floor = orig.abs() * (dim as f32) * f32::EPSILON;
-        let ok = d > floor && d.is_finite();
-        let ljj = if ok { sqrt(d) } else { 0.0 };
-        if let Some(x) = at_mut(coarse, n, j, j) {
-            *x = ljj;
-        }
-        for i in j + 1..dim {
-            let mut s = at(coarse, n, i, j);
-            for k in 0..j {
-                s -= at(coarse, n, i, k) * at(coarse, n, j, k);
+            if let Some(l) = coarse.get(packed(j, k)).map(|b| b.m) {
+                sub_abt(&mut d, &l, &l);
             }
-            if let Some(x) = at_mut(coarse, n, i, j) {
-                *x = if ok { s / ljj } else { 0.0 };
+        }
+        for c in 0..6 {
+            let mut dc = d[c * 6 + c];
+            for k in 0..c {
+                dc -= d[c * 6 + k] * d[c * 6 + k];
+            }
+            let ok = dc > orig[c].abs() * floor && dc.is_finite();
+            let ljj = if ok { sqrt(dc) } else { 0.0 };
+            d[c * 6 + c] = ljj;
+            for r in c + 1..6 {
+                let mut s = d[r * 6 + c];
+                for k in 0..c {
+                    s -= d[r * 6 + k] * d[c * 6 + k];
+                }
+                d[r * 6 + c] = if ok { s / ljj } else { 0.0 };
+            }
+            // The upper triangle is not read: clear it.
+            for r in 0..c {
+                d[r * 6 + c] = 0.0;
+            }
+        }
+        if let Some(b) = coarse.get_mut(packed(j, j)) {
+            b.m = d;
+        }
+        // Off-diagonal blocks below: L_ij = (A_ij − Σ_k L_ik L_jkᵀ) L_jj⁻ᵀ.
+        for i in j + 1..n {
+            let Some(mut b) = coarse.get(packed(i, j)).map(|b| b.m) else {
+                return;
+            };
+            for k in 0..j {
+                if let (Some(lik), Some(ljk)) = (
+                    coarse.get(packed(i, k)).map(|b| b.m),
+                    coarse.get(packed(j, k)).map(|b| b.m),
+                ) {
+                    sub_abt(&mut b, &lik, &ljk);
+                }
+            }
+            // Each row x of L_ij solves L_jj xᵀ = bᵀ.
+            for r in 0..6 {
+                let row: [f32; 6] = core::array::from_fn(|c| b[r * 6 + c]);
+                for (c, x) in lower_solve(&d, row).into_iter().enumerate() {
+                    b[r * 6 + c] = x;
+                }
+            }
+            if let Some(slot) = coarse.get_mut(packed(i, j)) {
+                slot.m = b;
             }
         }
     }
@@ -719,7 +871,138 @@ fn cholesky(coarse: &mut [CoarseBlock], n: usize) {
 
 #[cfg(test)]
 mod tests {
+    extern crate std;
     use super::*;
+
+    /// A symmetric positive definite `6n × 6n` matrix `BᵀB + 6n I` from a
+    /// fixed pseudo-random `B` (entries in [−1, 1]): condition number of a
+    /// few tens.
+    fn spd(n: usize, seed: u32) -> std::vec::Vec<std::vec::Vec<f64>> {
+        let dim = 6 * n;
+        let mut state = seed;
+        let mut next = || {
+            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            f64::from(state >> 8) / f64::from(1u32 << 23) - 1.0
+        };
+        let b: std::vec::Vec<std::vec::Vec<f64>> = (0..dim)
+            .map(|_| (0..dim).map(|_| next()).collect())
+            .collect();
+        (0..dim)
+            .map(|i| {
+                (0..dim)
+                    .map(|j| {
+                        let bb: f64 = (0..dim).map(|k| b[k][i] * b[k][j]).sum();
+                        bb + if i == j { dim as f64 } else { 0.0 }
+                    })
+                    .collect()
+            })
+            .collect()
+    }
+
+    /// Packs the lower block triangle of `a` into coarse blocks.
+    fn pack(a: &[std::vec::Vec<f64>], n: usize) -> std::vec::Vec<CoarseBlock> {
+        let mut c = std::vec![CoarseBlock::EMPTY; coarse_blocks_for(n)];
+        for bi in 0..n {
+            for bj in 0..=bi {
+                for r in 0..6 {
+                    for k in 0..6 {
+                        c[packed(bi, bj)].m[r * 6 + k] = a[bi * 6 + r][bj * 6 + k] as f32;
+                    }
+                }
+            }
+        }
+        c
+    }
+
+    /// `A x = y` by Gaussian elimination in f64 (the reference).
+    fn dense_solve(a: &[std::vec::Vec<f64>], y: &[f64]) -> std::vec::Vec<f64> {
+        let dim = y.len();
+        let mut m: std::vec::Vec<std::vec::Vec<f64>> = a.to_vec();
+        let mut x = y.to_vec();
+        for c in 0..dim {
+            for r in c + 1..dim {
+                let f = m[r][c] / m[c][c];
+                for k in c..dim {
+                    m[r][k] -= f * m[c][k];
+                }
+                x[r] -= f * x[c];
+            }
+        }
+        for c in (0..dim).rev() {
+            let s: f64 = (c + 1..dim).map(|k| m[c][k] * x[k]).sum();
+            x[c] = (x[c] - s) / m[c][c];
+        }
+        x
+    }
+
+    fn solve_with_factor(a: &[std::vec::Vec<f64>], n: usize, y: &[f64]) -> std::vec::Vec<f64> {
+        let mut coarse = pack(a, n);
+        cholesky(&mut coarse, n);
+        let mut aggs = std::vec![Aggregate::EMPTY; n];
+        for (k, v) in y.iter().enumerate() {
+            aggs[k / 6].y[k % 6] = *v as f32;
+        }
+        coarse_solve(&mut aggs, &coarse);
+        (0..6 * n)
+            .map(|k| f64::from(aggs[k / 6].y[k % 6]))
+            .collect()
+    }
+
+    #[test]
+    fn block_cholesky_solves_like_a_dense_f64_solve() {
+        for n in [1, 2, 5] {
+            let a = spd(n, 7 + n as u32);
+            let y: std::vec::Vec<f64> = (0..6 * n).map(|k| ((k * 37) % 11) as f64 - 5.0).collect();
+            let exact = dense_solve(&a, &y);
+            let got = solve_with_factor(&a, n, &y);
+            let norm = exact.iter().map(|x| x * x).sum::<f64>().sqrt();
+            let err = exact
+                .iter()
+                .zip(&got)
+                .map(|(e, g)| (e - g) * (e - g))
+                .sum::<f64>()
+                .sqrt();
+            // f32 factor and solves of a matrix with condition number of a
+            // few tens: relative error ~ κ · dim · ε ≈ 30 · 30 · 6e-8 ≈ 5e-5.
+            assert!(
+                err <= 1.0e-4 * norm,
+                "n = {n}: relative error {}",
+                err / norm
+            );
+        }
+    }
+
+    #[test]
+    fn a_dropped_unknown_gets_zero_and_the_rest_is_solved() {
+        let n = 2;
+        let mut a = spd(n, 3);
+        // Unknown 4 (a rotation of aggregate 0) has no stiffness at all.
+        let dropped = 4;
+        for k in 0..6 * n {
+            a[dropped][k] = 0.0;
+            a[k][dropped] = 0.0;
+        }
+        let y: std::vec::Vec<f64> = (0..6 * n).map(|k| (k % 5) as f64 - 2.0).collect();
+        let got = solve_with_factor(&a, n, &y);
+        assert_eq!(got[dropped], 0.0);
+        // The reduced system without the dropped unknown.
+        let keep: std::vec::Vec<usize> = (0..6 * n).filter(|&k| k != dropped).collect();
+        let ar: std::vec::Vec<std::vec::Vec<f64>> = keep
+            .iter()
+            .map(|&i| keep.iter().map(|&j| a[i][j]).collect())
+            .collect();
+        let yr: std::vec::Vec<f64> = keep.iter().map(|&k| y[k]).collect();
+        let exact = dense_solve(&ar, &yr);
+        let norm = exact.iter().map(|x| x * x).sum::<f64>().sqrt();
+        let err = keep
+            .iter()
+            .zip(&exact)
+            .map(|(&k, e)| (e - got[k]) * (e - got[k]))
+            .sum::<f64>()
+            .sqrt();
+        // As above.
+        assert!(err <= 1.0e-4 * norm, "relative error {}", err / norm);
+    }
 
     #[test]
     fn slot_sizes_are_as_documented() {

@@ -319,7 +319,7 @@ impl<S: Storage> Scene<S> {
             let (blocks, aggs, coarse) = self.store.preconditioner_capacity();
             blocks >= nodes
                 && (pre != Preconditioner::TwoLevel
-                    || (aggs >= 1 && coarse >= aggs.saturating_mul(aggs)))
+                    || (aggs >= 1 && coarse >= crate::precond::coarse_blocks_for(aggs)))
         }
         #[cfg(not(feature = "two-level"))]
         false

@@ -477,47 +477,49 @@ fn prepare(
     #[cfg(feature = "tool")]
     let tool = hdr.tool;
     let h = hdr.settings.dt;
+    let two_level = kind == Preconditioner::TwoLevel;
     // The aggregation first: it moves the node slots around.
-    if kind == Preconditioner::TwoLevel && !hdr.coarse_ready {
+    if two_level && !hdr.coarse_ready {
         hdr.n_aggs = precond::aggregate(nodes, pre.blocks, pre.aggs);
     }
-    precond::node_blocks(
-        per_young,
-        elems,
-        n_elems,
-        nodes,
-        pre.blocks,
-        mass_coef,
-        k_coef,
-        |_n| {
-            #[cfg(feature = "tool")]
-            if _n.flags & GRABBED != 0 && tool.active() {
-                return h * h * tool.k_node;
-            }
-            let _ = h;
-            0.0
-        },
-    );
     // The aggregates in use (none for block-Jacobi): what `precond::apply`
     // works with.
-    let n = if kind == Preconditioner::TwoLevel {
-        hdr.n_aggs
-    } else {
-        0
-    };
+    let n = if two_level { hdr.n_aggs } else { 0 };
     pre.aggs = core::mem::take(&mut pre.aggs)
         .get_mut(..n)
         .unwrap_or_default();
     pre.coarse = core::mem::take(&mut pre.coarse)
-        .get_mut(..n * n)
+        .get_mut(..precond::coarse_blocks_for(n))
         .unwrap_or_default();
     if n > 0 {
         precond::rotations(nodes, pre.blocks, pre.aggs);
-        if !hdr.coarse_ready {
-            precond::factor(per_young, elems, n_elems, nodes, pre, mass_coef, k_coef);
-        }
     } else {
         kind = Preconditioner::BlockJacobi;
+    }
+    // Block-Jacobi's node blocks follow the state every step (with the
+    // tool's spring); the two-level ones are prepared with the factor, in
+    // their aggregate's frame, and turn with it.
+    if n == 0 || !hdr.coarse_ready {
+        precond::node_blocks(
+            per_young,
+            elems,
+            n_elems,
+            nodes,
+            pre.blocks,
+            mass_coef,
+            k_coef,
+            |_n| {
+                #[cfg(feature = "tool")]
+                if n == 0 && _n.flags & GRABBED != 0 && tool.active() {
+                    return h * h * tool.k_node;
+                }
+                let _ = h;
+                0.0
+            },
+        );
+    }
+    if n > 0 && !hdr.coarse_ready {
+        precond::factor(per_young, elems, n_elems, nodes, pre, mass_coef, k_coef);
     }
     hdr.coarse_ready = true;
     kind

@@ -534,7 +534,10 @@ impl VecStorage {
             #[cfg(feature = "two-level")]
             aggs: slots(aggs, crate::precond::Aggregate::EMPTY),
             #[cfg(feature = "two-level")]
-            coarse: slots(aggs * aggs, crate::precond::CoarseBlock::EMPTY),
+            coarse: slots(
+                crate::precond::coarse_blocks_for(aggs),
+                crate::precond::CoarseBlock::EMPTY,
+            ),
         }
     }
 }
