@@ -9,12 +9,15 @@
 //! P⁻¹ = S (D⁻¹ + Φ A_c⁻¹ Φᵀ) S,    A_c = Φᵀ A Φ
 //! ```
 //!
-//! - `D` holds the 3×3 node blocks of `A`, rebuilt every step from the
-//!   gradients the force pass has just refreshed: for node `i` of an element,
-//!   `K_ii = (λ' + μ') gᵢ gᵢᵀ + μ' |gᵢ|² I` (the `i = j` case of
-//!   `K_ij = λ' gᵢ g_jᵀ + μ' g_j gᵢᵀ + μ' (gᵢ·g_j) I`, `crate::element::hform`).
-//!   It sees what a lumped mass cannot: a node of a small or sliver element
-//!   is far stiffer than its mass says.
+//! - `D` holds the 3×3 node blocks of `A`, from the element gradients: for
+//!   node `i` of an element, `K_ii = (λ' + μ') gᵢ gᵢᵀ + μ' |gᵢ|² I` (the
+//!   `i = j` case of `K_ij = λ' gᵢ g_jᵀ + μ' g_j gᵢᵀ + μ' (gᵢ·g_j) I`,
+//!   `crate::element::hform`). It sees what a lumped mass cannot: a node of a
+//!   small or sliver element is far stiffer than its mass says.
+//!   Block-Jacobi rebuilds `D` every step from the gradients the force pass
+//!   has just refreshed; the two-level preconditioner prepares it with the
+//!   coarse factor, in each aggregate's frame, and turns it with the
+//!   aggregate (`D = R_a D_local R_aᵀ`), which costs nothing per step.
 //! - `Φ` has six columns per aggregate `a` (a compact group of free nodes,
 //!   from recursive coordinate bisection of the rest positions): the rigid
 //!   translations and rotations of its nodes, turned by the aggregate's
@@ -25,7 +28,8 @@
 //!   (bending, sagging) across the body at once, which is what a few
 //!   iterations miss.
 //! - `A_c` is the Galerkin operator at the state where it was last prepared
-//!   (the rest shape, usually), factorised once by Cholesky. Because `Φ`
+//!   (the rest shape, usually), factorised once by block Cholesky (6×6
+//!   blocks, the lower block triangle packed). Because `Φ`
 //!   turns with the aggregates, `Φᵀ A Φ` changes little as the body
 //!   rotates, and the factor serves later steps unchanged (SOFA's
 //!   `WarpPreconditioner` makes the same bet with a fine-level factor). It

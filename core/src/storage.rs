@@ -263,7 +263,8 @@ impl<S: sealed::Sealed + ?Sized> sealed::Sealed for &mut S {
 /// (feature `loads`), 16 bytes each; with the feature `two-level`, `P` node
 /// slots of preconditioner data (32 bytes each: `N` of them, or 0 for the
 /// mass preconditioner only) and up to `A` aggregates for the two-level
-/// preconditioner's coarse space (`128 + 144 A` bytes each: 0 for
+/// preconditioner's coarse space (`176 + 144 A` bytes each, of which the
+/// factor of `n` aggregates uses `n (n + 1) / 2` blocks: 0 for
 /// block-Jacobi at most). `const fn new` lets a whole scene live in a
 /// `static`.
 #[derive(Clone, Debug)]
@@ -409,7 +410,9 @@ impl<'a> SliceStorage<'a> {
     }
 
     /// With `blocks` (one per node) as the node-block preconditioner's
-    /// slots, and `aggs` and `coarse` (`aggs.len()²` of them) for up to
+    /// slots, and `aggs` and `coarse` (at least
+    /// [`coarse_blocks_for`](crate::coarse_blocks_for)`(aggs.len())` of
+    /// them) for up to
     /// `aggs.len()` aggregates of the two-level preconditioner's coarse
     /// space (feature `two-level`).
     #[cfg(feature = "two-level")]
