@@ -874,6 +874,8 @@ fn cholesky(coarse: &mut [CoarseBlock], n: usize) {
 }
 
 #[cfg(test)]
+// The dense f64 reference reads as the textbook algorithm, with indices.
+#[allow(clippy::needless_range_loop)]
 mod tests {
     extern crate std;
     use super::*;
