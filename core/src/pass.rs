@@ -875,17 +875,16 @@ fn product_chunk<B: Backend>(
     b.scatter_chunk::<WorkQ>(work, c, h, &f);
 }
 
-/// Diagonal of the stiffness matrix of the first `count` elements, averaged
-/// over the three components of each node, added into `diag`. For node `i`
-/// with world gradient `g` the block diagonal is
-/// `λ' g gᵀ + μ' (|g|² I + g gᵀ)`, whose trace is `(λ' + 2μ') |g|²`; node `a`
-/// has `g_a = −(g_b + g_c + g_d)`.
-#[cfg(feature = "statics")]
-pub(crate) fn stiffness_diagonal(
+/// Visits each of the first `count` elements with its node indices, its
+/// world gradients `g_a … g_d` (`g_a = −(g_b + g_c + g_d)`) and its Lamé
+/// coefficients `[λ', μ']`: for the passes that assemble parts of `K`
+/// element by element, outside the step's hot loops.
+#[cfg(any(feature = "statics", feature = "two-level"))]
+pub(crate) fn each_element(
     per_young: [f32; 2],
     elems: &[ElementBlock],
     count: usize,
-    mut add_to: impl FnMut(usize, f32),
+    mut f: impl FnMut([usize; 4], [Vec3; 4], [f32; 2]),
 ) {
     for e in 0..count {
         let Some(blk) = elems.get(e / LANES) else {
@@ -894,12 +893,31 @@ pub(crate) fn stiffness_diagonal(
         let el = blk.get(e % LANES);
         let g = el.grad;
         let ga = neg(add(add(g[0], g[1]), g[2]));
-        let [l, m] = el.lame(per_young);
-        let c = (l + 2.0 * m) * (1.0 / 3.0);
-        for (id, gi) in el.nodes.iter().zip([ga, g[0], g[1], g[2]]) {
-            add_to(usize::from(*id), c * crate::math::dot(gi, gi));
-        }
+        f(
+            el.nodes.map(usize::from),
+            [ga, g[0], g[1], g[2]],
+            el.lame(per_young),
+        );
     }
+}
+
+/// Diagonal of the stiffness matrix of the first `count` elements, averaged
+/// over the three components of each node, added into `diag`. For node `i`
+/// with world gradient `g` the block diagonal is
+/// `λ' g gᵀ + μ' (|g|² I + g gᵀ)`, whose trace is `(λ' + 2μ') |g|²`.
+#[cfg(feature = "statics")]
+pub(crate) fn stiffness_diagonal(
+    per_young: [f32; 2],
+    elems: &[ElementBlock],
+    count: usize,
+    mut add_to: impl FnMut(usize, f32),
+) {
+    each_element(per_young, elems, count, |ids, g, [l, m]| {
+        let c = (l + 2.0 * m) * (1.0 / 3.0);
+        for (id, gi) in ids.into_iter().zip(g) {
+            add_to(id, c * crate::math::dot(gi, gi));
+        }
+    });
 }
 
 #[cfg(test)]

@@ -41,9 +41,9 @@
 //! iterations, never correctness.
 
 use crate::element::ElementBlock;
-use crate::math::{add, cross, dot, mat_vec, neg, scale, sqrt, sub, Mat3, Vec3};
+use crate::math::{add, cross, dot, mat_vec, scale, sqrt, sub, Mat3, Vec3};
+use crate::pass::each_element;
 use crate::storage::{Node, NodeWork, FIXED};
-use crate::ELEMENTS_PER_BLOCK as LANES;
 
 /// What [`NodeBlock::aggregate`] holds for a node in no aggregate (fixed).
 const NONE: u32 = u32::MAX;
@@ -237,26 +237,6 @@ fn sym_inverse(s: &[f32; 6]) -> Option<[f32; 6]> {
         czx * inv,
     ];
     out.iter().all(|x| x.is_finite()).then_some(out)
-}
-
-/// Visits every element's nodes and world gradients `g_a … g_d` with its
-/// Lamé coefficients `[λ', μ']`.
-fn each_element(
-    per_young: [f32; 2],
-    elems: &[ElementBlock],
-    count: usize,
-    mut f: impl FnMut([usize; 4], [Vec3; 4], [f32; 2]),
-) {
-    for e in 0..count {
-        let Some(blk) = elems.get(e / LANES) else {
-            break;
-        };
-        let el = blk.get(e % LANES);
-        let g = el.grad;
-        let ga = neg(add(add(g[0], g[1]), g[2]));
-        let n = el.nodes.map(usize::from);
-        f(n, [ga, g[0], g[1], g[2]], el.lame(per_young));
-    }
 }
 
 /// Sets every node's `inv` to the inverse of its 3×3 block of
