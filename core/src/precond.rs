@@ -40,8 +40,9 @@
 //! preconditioner whatever the state; an approximate `A_c` only costs
 //! iterations, never correctness.
 
+use crate::element::rotation::{closest_rotation, IDENTITY};
 use crate::element::ElementBlock;
-use crate::math::{add, cross, dot, mat_vec, scale, sqrt, sub, Mat3, Vec3};
+use crate::math::{add, cross, dot, mat_vec, sqrt, sub, Mat3, Vec3};
 use crate::pass::each_element;
 use crate::storage::{Node, NodeWork, FIXED};
 
@@ -102,8 +103,8 @@ impl Aggregate {
         c0: [0.0; 3],
         s0: [[0.0; 3]; 3],
         rot: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
-        q_step: [1.0, 0.0, 0.0, 0.0],
-        q: [1.0, 0.0, 0.0, 0.0],
+        q_step: IDENTITY,
+        q: IDENTITY,
         apq: [[0.0; 3]; 3],
         y: [0.0; 6],
     };
@@ -306,8 +307,8 @@ pub(crate) fn rotations(nodes: &[Node], blocks: &[NodeBlock], aggs: &mut [Aggreg
         }
     }
     for a in aggs.iter_mut() {
-        let q = extract_rotation(&a.apq, a.q);
-        a.rot = rotation(q);
+        let mut q = a.q;
+        a.rot = closest_rotation(&a.apq, &mut q).0;
         a.q_step = q;
     }
 }
@@ -318,78 +319,6 @@ pub(crate) fn commit_rotations(aggs: &mut [Aggregate]) {
     for a in aggs.iter_mut() {
         a.q = a.q_step;
     }
-}
-
-/// Most iterations of [`extract_rotation`]: warm-started from the last
-/// step's rotation, one or two reach f32 round-off on smooth motion.
-const ROTATION_ITERATIONS: usize = 8;
-
-/// The rotation `R` that maximises `tr(Rᵀ F)`, by Müller et al.'s
-/// iteration ("A robust method to extract the rotational part of
-/// deformations", 2016): turn `R` by `ω = Σ rₖ × fₖ / (|Σ rₖ·fₖ| + ε)` (the
-/// columns `rₖ`, `fₖ` of `R` and `F`) until `ω` vanishes. Each update
-/// is a rotation, so the result never is a reflection, whatever `F`.
-/// Returns `q` unchanged if `F` is not finite.
-fn extract_rotation(f: &Mat3, mut q: [f32; 4]) -> [f32; 4] {
-    let col = |m: &Mat3, k: usize| [m[0][k], m[1][k], m[2][k]];
-    let norm2 = f.iter().flatten().fold(0.0f32, |s, x| s + x * x);
-    if !(norm2 >= f32::MIN_POSITIVE && norm2.is_finite()) {
-        return q;
-    }
-    let eps = sqrt(norm2) * 1.0e-6;
-    for _ in 0..ROTATION_ITERATIONS {
-        let r = rotation(q);
-        let (mut num, mut den) = ([0.0f32; 3], 0.0f32);
-        for k in 0..3 {
-            let (rk, fk) = (col(&r, k), col(f, k));
-            num = add(num, cross(rk, fk));
-            den += dot(rk, fk);
-        }
-        let omega = scale(num, 1.0 / (den.abs() + eps));
-        let angle2 = dot(omega, omega);
-        if !(angle2 > f32::EPSILON * f32::EPSILON) || !angle2.is_finite() {
-            break;
-        }
-        // q ← (1, ω/2) ⊗ q, normalised: a turn by |ω| about ω to first order,
-        // exact in direction, without trigonometry.
-        let h = scale(omega, 0.5);
-        let dq = [1.0, h[0], h[1], h[2]];
-        let p = [
-            dq[0] * q[0] - dq[1] * q[1] - dq[2] * q[2] - dq[3] * q[3],
-            dq[0] * q[1] + dq[1] * q[0] + dq[2] * q[3] - dq[3] * q[2],
-            dq[0] * q[2] - dq[1] * q[3] + dq[2] * q[0] + dq[3] * q[1],
-            dq[0] * q[3] + dq[1] * q[2] - dq[2] * q[1] + dq[3] * q[0],
-        ];
-        let len2 = p.iter().fold(0.0f32, |s, x| s + x * x);
-        if !(len2 >= f32::MIN_POSITIVE && len2.is_finite()) {
-            break;
-        }
-        let inv = 1.0 / sqrt(len2);
-        q = p.map(|x| x * inv);
-    }
-    q
-}
-
-/// The rotation matrix (rows) of the unit quaternion `(w, x, y, z)`.
-fn rotation(q: [f32; 4]) -> Mat3 {
-    let [w, x, y, z] = q;
-    [
-        [
-            1.0 - 2.0 * (y * y + z * z),
-            2.0 * (x * y - w * z),
-            2.0 * (x * z + w * y),
-        ],
-        [
-            2.0 * (x * y + w * z),
-            1.0 - 2.0 * (x * x + z * z),
-            2.0 * (y * z - w * x),
-        ],
-        [
-            2.0 * (x * z - w * y),
-            2.0 * (y * z + w * x),
-            1.0 - 2.0 * (x * x + y * y),
-        ],
-    ]
 }
 
 /// `z = S (D⁻¹ + Φ A_c⁻¹ Φᵀ) S r` into every `q` (two-level when `aggs` is

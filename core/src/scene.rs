@@ -467,7 +467,7 @@ impl<S: Storage> Scene<S> {
                 #[cfg(any(feature = "polar", feature = "linear"))]
                 rest_grad: grad,
                 #[cfg(feature = "polar")]
-                rot: crate::element::polar::IDENTITY,
+                rot: crate::element::rotation::IDENTITY,
             };
             block.set(j, &el);
             let quarter = material.density * six_v0 * (1.0 / 24.0);

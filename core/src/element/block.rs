@@ -68,10 +68,10 @@ impl ElementBlock {
     /// Every lane's polar rotation at the identity: where `Polar` starts.
     #[cfg(feature = "polar")]
     pub(crate) const POLAR_START: [Batch; 4] = [
-        Lanes([super::polar::IDENTITY[0]; LANES]),
-        Lanes([super::polar::IDENTITY[1]; LANES]),
-        Lanes([super::polar::IDENTITY[2]; LANES]),
-        Lanes([super::polar::IDENTITY[3]; LANES]),
+        Lanes([super::rotation::IDENTITY[0]; LANES]),
+        Lanes([super::rotation::IDENTITY[1]; LANES]),
+        Lanes([super::rotation::IDENTITY[2]; LANES]),
+        Lanes([super::rotation::IDENTITY[3]; LANES]),
     ];
 
     /// Node indices of lane `j` (zeros if `j ≥ LANES`).

@@ -9,6 +9,8 @@ pub(crate) mod linear;
 #[cfg(feature = "polar")]
 pub(crate) mod polar;
 pub(crate) mod qr;
+#[cfg(any(feature = "polar", feature = "two-level"))]
+pub(crate) mod rotation;
 
 pub(crate) use block::{block_and_lane, lane3, Batch};
 pub use block::{element_blocks, ElementBlock};
@@ -203,7 +205,7 @@ impl Element {
         #[cfg(any(feature = "polar", feature = "linear"))]
         rest_grad: [[0.0; 3]; 3],
         #[cfg(feature = "polar")]
-        rot: polar::IDENTITY,
+        rot: rotation::IDENTITY,
     };
 
     /// `6 V₀` (m³), from the rest local coordinates: `xb·yc·zd`.
