@@ -108,8 +108,8 @@ impl Header {
     /// among them) keeps only the test.
     #[cold]
     #[inline(never)]
-    fn write_default_settings(&mut self, defaults: Settings) {
-        self.settings = defaults;
+    fn write_default_settings(&mut self) {
+        self.settings = Settings::new();
         self.settings_valid = true;
     }
 
@@ -278,8 +278,7 @@ impl<S: Storage> Scene<S> {
     #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
     pub(crate) fn view(&mut self) -> View<'_> {
         if !self.hdr.settings_valid {
-            let defaults = *self.settings();
-            self.hdr.write_default_settings(defaults);
+            self.hdr.write_default_settings();
         }
         let (n, e) = (self.hdr.n_nodes, self.hdr.n_elems);
         #[cfg(feature = "tool")]
@@ -512,19 +511,10 @@ impl<S: Storage> Scene<S> {
     #[must_use]
     pub fn settings(&self) -> &Settings {
         const DEFAULTS: Settings = Settings::new();
-        // The defaults of a storage without room for the default
-        // preconditioner: the lumped mass, without warm start.
-        const MASS: Settings = Settings {
-            preconditioner: Preconditioner::Mass,
-            warm_start: false,
-            ..Settings::new()
-        };
         if self.hdr.settings_valid {
             &self.hdr.settings
-        } else if self.supports(DEFAULTS.preconditioner) {
-            &DEFAULTS
         } else {
-            &MASS
+            &DEFAULTS
         }
     }
 
@@ -537,7 +527,19 @@ impl<S: Storage> Scene<S> {
                 preconditioner: settings.preconditioner,
             });
         }
-        self.hdr.invalidate_coarse();
+        // The coarse factor depends on the system matrix's coefficients
+        // (dt, damping) and on the preconditioner; gravity, the budget or
+        // the warm start leave it valid.
+        let old = self.settings();
+        if (
+            settings.dt,
+            settings.rayleigh_mass,
+            settings.rayleigh_stiffness,
+        ) != (old.dt, old.rayleigh_mass, old.rayleigh_stiffness)
+            || settings.preconditioner != old.preconditioner
+        {
+            self.hdr.invalidate_coarse();
+        }
         #[cfg(feature = "polar")]
         if settings.method == Method::Polar && self.settings().method != Method::Polar {
             for block in self.view().elems.iter_mut() {
