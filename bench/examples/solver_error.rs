@@ -112,7 +112,7 @@ fn main() {
                 );
             }
             println!(
-                "{name:8} {:5} nodes {:6} tets  {:13} cg {cg:2}  {:.4} ms/step (first {:.3} ms)  error {}",
+                "{name:8} {:5} nodes {:6} tets  {:13} cg {cg:2}  {:.4} ms/step (first {:.3} ms)  error {}{}",
                 d.nodes.len(),
                 d.tets.len(),
                 pre.name(),
@@ -122,6 +122,16 @@ fn main() {
                     "diverged".to_owned()
                 } else {
                     format!("{:.2e}", traj.relative(e))
+                },
+                if pre == Preconditioner::TwoLevel {
+                    // What `VecStorage` makes room for and the scene uses.
+                    let free = d.nodes.len() - d.fixed.len();
+                    format!(
+                        "  ({} aggregates)",
+                        corofem::aggregates_for(free, corofem::MAX_AGGREGATES)
+                    )
+                } else {
+                    String::new()
                 }
             );
         }
