@@ -18,32 +18,27 @@ use corofem_bench::reference::{RefMethod, Trajectory};
 use corofem_bench::scenes::{self, SceneDef};
 use std::time::Instant;
 
+/// A mesh of `../shared/meshes` scaled by `scale`, hanging from its nodes
+/// within `band` (m) of its top (largest y), with α_M 0.5, α_K 0.002.
+fn hanging(name: &str, file: &str, scale: f64, band: f32) -> SceneDef {
+    let mut s = scenes::from_file(name, &scenes::meshes_dir().join(file), scale);
+    let top = s.nodes.iter().map(|p| p[1]).fold(f32::MIN, f32::max);
+    s.fixed = (0..s.nodes.len() as u32)
+        .filter(|&i| s.nodes[i as usize][1] >= top - band)
+        .collect();
+    s.rayleigh_mass = 0.5;
+    s.rayleigh_stiffness = 0.002;
+    s
+}
+
 fn scene(name: &str) -> SceneDef {
     let m = scenes::meshes_dir();
     match name {
         "beam" => scenes::beam(),
         "liver" => scenes::liver(&m),
         "bunny" => scenes::bunny(&m),
-        "liver3k" => {
-            let mut s = scenes::from_file("liver3k", &m.join("liver_ftw_3k.tetmesh"), 0.03);
-            let top = s.nodes.iter().map(|p| p[1]).fold(f32::MIN, f32::max);
-            s.fixed = (0..s.nodes.len() as u32)
-                .filter(|&i| s.nodes[i as usize][1] >= top - 0.005)
-                .collect();
-            s.rayleigh_mass = 0.5;
-            s.rayleigh_stiffness = 0.002;
-            s
-        }
-        "bunny3k" => {
-            let mut s = scenes::from_file("bunny3k", &m.join("bunny_ftw_3k.tetmesh"), 1.0);
-            let top = s.nodes.iter().map(|p| p[1]).fold(f32::MIN, f32::max);
-            s.fixed = (0..s.nodes.len() as u32)
-                .filter(|&i| s.nodes[i as usize][1] >= top - 0.008)
-                .collect();
-            s.rayleigh_mass = 0.5;
-            s.rayleigh_stiffness = 0.002;
-            s
-        }
+        "liver3k" => hanging("liver3k", "liver_ftw_3k.tetmesh", 0.03, 0.005),
+        "bunny3k" => hanging("bunny3k", "bunny_ftw_3k.tetmesh", 1.0, 0.008),
         _ => panic!("unknown scene {name}"),
     }
 }
