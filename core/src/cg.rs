@@ -27,6 +27,10 @@ pub(crate) struct CgOutcome {
     /// The residual or an inner product overflowed: the system itself is
     /// beyond f32 (absurd loads), so no solution can be trusted.
     pub(crate) overflow: bool,
+    /// The solve stopped where `certify` accepted it (or at an exact zero
+    /// residual). `false`: it stopped at the iteration cap, at the round-off
+    /// floor or at a direction without curvature, without that acceptance.
+    pub(crate) certified: bool,
 }
 
 /// Relative floor of `rᵀz` (f32 epsilon squared): iterating below it only
@@ -49,6 +53,13 @@ const FLOOR: f32 = f32::EPSILON * f32::EPSILON;
 /// the update loop, or with `whole`, a pass that sets every `q` to the
 /// preconditioned residual `z` and returns `rᵀz` summed in node order.
 ///
+/// The solve stops once `max_iterations` have run or the residual is below
+/// `tolerance`, but only where `certify(work)` accepts the iterate; until
+/// then it goes on, to at most `cap` iterations (`cap ≥ max_iterations`).
+/// The step's certificate is that the truncation adds no energy
+/// (`step.rs`); a solve that needs no such check passes `|_| true`, and
+/// then runs exactly as the plain algorithm.
+///
 /// Loops are fused where the order of operations allows it, so the result
 /// has the bits of the plain algorithm: `dᵀq` is summed inside `apply`'s
 /// node loop, and `q` is zeroed for the next product in the loop that updates
@@ -59,12 +70,14 @@ const FLOOR: f32 = f32::EPSILON * f32::EPSILON;
 pub(crate) fn solve(
     work: &mut [NodeWork],
     max_iterations: u32,
+    cap: u32,
     tolerance: f32,
     from_guess: bool,
     scale_guess: bool,
     project: impl Fn(usize, Vec3) -> Vec3,
     mut whole: Option<impl FnMut(&mut [NodeWork]) -> f32>,
     mut apply: impl FnMut(&mut [NodeWork]) -> f32,
+    mut certify: impl FnMut(&[NodeWork]) -> bool,
 ) -> CgOutcome {
     if from_guess {
         // r = b − A x₀.
@@ -119,19 +132,33 @@ pub(crate) fn solve(
         };
     }
     if !(rz0 > 0.0) {
-        return CgOutcome::default();
+        // A zero preconditioned residual: the guess solves the system.
+        return CgOutcome {
+            certified: true,
+            ..CgOutcome::default()
+        };
     }
-    let stop = (tolerance * tolerance * rz0)
-        .max(FLOOR * rz0)
-        .max(f32::MIN_POSITIVE);
+    let floor = (FLOOR * rz0).max(f32::MIN_POSITIVE);
+    let stop = (tolerance * tolerance * rz0).max(floor);
     let mut iterations = 0;
-    while iterations < max_iterations && rz > stop {
+    let mut certified = false;
+    loop {
+        if iterations >= max_iterations || rz <= stop {
+            if certify(work) {
+                certified = true;
+                break;
+            }
+            if iterations >= cap || rz <= floor {
+                break;
+            }
+        }
         let dq = apply(work);
         if !dq.is_finite() {
             return CgOutcome {
                 iterations,
                 residual: f32::INFINITY,
                 overflow: true,
+                certified: false,
             };
         }
         if !(dq > 0.0) {
@@ -168,5 +195,6 @@ pub(crate) fn solve(
         // initial one can exceed f32 (found by fuzzing); the statistic stays finite.
         residual: (sqrt(rz.max(0.0)) / sqrt(rz0)).min(f32::MAX),
         overflow: !rz.is_finite(),
+        certified,
     }
 }

@@ -17,7 +17,8 @@
 //!            node pass: b = h (f_el + f_ext + m g − α_M M v) + h(α_K + h)(−K v)
 //!                 │       preconditioner M, fixed nodes, ground contacts, tool
 //!                 ▼
-//!            CG: A Δv = b, A = (1 + hα_M) M + h(α_K + h) K     (≤ cg_iterations,
+//!            CG: A Δv = b, A = (1 + hα_M) M + h(α_K + h) K     (cg_iterations,
+//!                 │   more until the energy certificate holds;
 //!                 │   K d element by element from g, never assembled)
 //!                 ▼
 //!            v ← v + Δv, u ← u + h v  (only if finite), ground projection,

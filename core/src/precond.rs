@@ -135,10 +135,9 @@ impl Default for CoarseBlock {
     }
 }
 
-/// Free nodes per aggregate that [`aggregates_for`] aims at: measured on the
-/// report's scenes, fewer nodes per aggregate keep reducing the error of a
-/// few iterations, while the coarse solve's cost grows as the square of the
-/// aggregate count.
+/// Free nodes per aggregate that [`aggregates_for`] aims at on small
+/// bodies: fewer nodes per aggregate keep reducing the error of a few
+/// iterations on the report's scenes.
 pub const NODES_PER_AGGREGATE: usize = 24;
 
 /// The aggregates `VecStorage` has room for: the coarse solve costs
@@ -147,10 +146,15 @@ pub const MAX_AGGREGATES: usize = 64;
 
 /// The number of aggregates the two-level preconditioner uses for a body of
 /// `free_nodes` free nodes with room for `capacity`: one per
-/// [`NODES_PER_AGGREGATE`] nodes, at least one, at most `capacity`.
+/// [`NODES_PER_AGGREGATE`] nodes, but at most `√(2 n / 3) + 1`, at least
+/// one, at most `capacity`. The coarse solve costs `(6 a)²` per iteration
+/// for `a` aggregates and the rest of an iteration `O(n)`: with `a ~ √n`,
+/// the coarse solve's share of an iteration stays the same as bodies grow.
 #[must_use]
 pub const fn aggregates_for(free_nodes: usize, capacity: usize) -> usize {
     let n = free_nodes.div_ceil(NODES_PER_AGGREGATE);
+    let root = (free_nodes.saturating_mul(2) / 3).isqrt() + 1;
+    let n = if n < root { n } else { root };
     let n = if n == 0 { 1 } else { n };
     if n < capacity {
         n
@@ -323,7 +327,9 @@ pub(crate) fn commit_rotations(aggs: &mut [Aggregate]) {
 
 /// `z = S (D⁻¹ + Φ A_c⁻¹ Φᵀ) S r` into every `q` (two-level when `aggs` is
 /// not empty, else block-Jacobi); returns `rᵀz` summed in node order.
-/// `project(i, v)` applies node `i`'s filter `S`.
+/// `input(i, r)` gives what node `i` contributes in place of `S r` (its
+/// filter, or a residual with the rigid part taken out), and
+/// `project(i, v)` applies node `i`'s filter `S` to the output.
 ///
 /// With aggregates, node blocks are held in their aggregate's frame
 /// (`D = R_a D_local R_aᵀ`, prepared with the factor), so that both parts
@@ -334,12 +340,13 @@ pub(crate) fn apply(
     nodes: &[Node],
     work: &mut [NodeWork],
     p: &mut Parts<'_>,
+    input: impl Fn(usize, Vec3) -> Vec3,
     project: impl Fn(usize, Vec3) -> Vec3,
 ) -> f32 {
     if p.aggs.is_empty() {
         let mut rz = 0.0f32;
         for (i, (w, b)) in work.iter_mut().zip(p.blocks.iter()).enumerate() {
-            w.q = project(i, sym_vec(&b.inv, project(i, w.r)));
+            w.q = project(i, sym_vec(&b.inv, input(i, w.r)));
             rz += dot(w.r, w.q);
         }
         return rz;
@@ -356,7 +363,7 @@ pub(crate) fn apply(
     {
         w.q = [0.0; 3];
         if let Some(a) = p.aggs.get_mut(b.aggregate as usize) {
-            let rl = mat_t_vec(&a.rot, project(i, w.r));
+            let rl = mat_t_vec(&a.rot, input(i, w.r));
             w.q = sym_vec(&b.inv, rl);
             let m = cross(sub(n.x0, a.c0), rl);
             a.y = [

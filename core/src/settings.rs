@@ -76,7 +76,15 @@ pub struct Settings {
     pub method: Method,
     /// Time step `h` (s, `> 0`). Default 0.001.
     pub dt: f32,
-    /// Most conjugate-gradient iterations per step (`≥ 1`). Default 5.
+    /// Conjugate-gradient iterations per step (`≥ 1`): the budget. Default 5.
+    ///
+    /// A solve stops at the budget only where its truncation adds no energy
+    /// to the body (the step's energy certificate, checked with one pass
+    /// over the nodes); otherwise it goes on, up to
+    /// [`Settings::iteration_cap`], and a solve that still has no
+    /// certificate there ends with a Galerkin step on the span of its
+    /// solution and the current velocity, which has one (three products with
+    /// the system matrix). [`StepStats::cg_iterations`] reports what ran.
     pub cg_iterations: u32,
     /// Relative residual (preconditioned norm) at which CG stops early
     /// (`≥ 0`; 0 = no early stop, except at the f32 round-off floor `ε²` of
@@ -129,6 +137,16 @@ impl Settings {
         gravity: [0.0; 3],
     };
 
+    /// The most CG iterations a step runs: `2 cg_iterations + 16`. The
+    /// extra iterations only run while the energy certificate fails, which
+    /// takes a truncated solve that injects energy; the cap keeps a step's
+    /// worst case known: `iteration_cap() + 3` products with the system
+    /// matrix.
+    #[must_use]
+    pub const fn iteration_cap(&self) -> u32 {
+        self.cg_iterations.saturating_mul(2).saturating_add(16)
+    }
+
     /// Checks every field's range (the error names the field) and that the
     /// method is compiled in.
     pub fn validate(&self) -> Result<(), Error> {
@@ -170,8 +188,13 @@ impl Default for Settings {
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct StepStats {
-    /// CG iterations run.
+    /// CG iterations run: the budget [`Settings::cg_iterations`], fewer
+    /// where the tolerance stopped the solve, more (up to
+    /// [`Settings::iteration_cap`]) where the energy certificate needed them.
     pub cg_iterations: u32,
+    /// Whether the step ended with the Galerkin step of a solve that had no
+    /// energy certificate at the iteration cap.
+    pub galerkin: bool,
     /// Final CG residual relative to the initial one (preconditioned norm).
     pub cg_residual: f32,
     /// Elements with negative current volume, at the start of the step.

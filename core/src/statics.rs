@@ -210,12 +210,14 @@ impl<S: Storage> Scene<S> {
                 let out = cg::solve(
                     work,
                     cfg.cg_iterations,
+                    cfg.cg_iterations,
                     cfg.cg_tolerance,
                     false,
                     false,
                     |_, z| z,
                     None::<fn(&mut [NodeWork]) -> f32>,
                     apply,
+                    |_: &[NodeWork]| true,
                 );
                 last.cg_iterations = out.iterations;
                 last.cg_residual = out.residual;

@@ -175,9 +175,6 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
             continue;
         }
         w.inv_p = 1.0 / p;
-        if !s.warm_start {
-            w.x = [0.0; 3];
-        }
         #[cfg(feature = "ground")]
         if let Some(g) = ground {
             let dist = g.distance(n.position());
@@ -188,13 +185,32 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
             }
         }
     }
-    if s.warm_start && isolated {
-        // The warm start keeps no momentum of its own; the free fall adds the
-        // exact impulse of gravity below.
-        remove_momentum(nodes, work);
+    // A warm guess with held normals cannot be scaled to its best multiple
+    // (the normals are prescribed), and unscaled it can start the solve
+    // worse than no guess: steps with ground contacts start cold.
+    let warm = s.warm_start && held == 0;
+    // An isolated body's rigid motions: translations, which `K` annihilates
+    // bit for bit in every method, and, for `Qr`, whose `B` is that of the
+    // current shape, rotations about the current shape too. The solve keeps
+    // the exact step's response to these modes (the momentum), whatever the
+    // preconditioner and however it is truncated.
+    let rigid = if isolated {
+        Rigid::new(nodes, s.method == crate::Method::Qr)
+    } else {
+        None
+    };
+    if warm && isolated {
+        if let Some(body) = Rigid::new(nodes, true) {
+            // The warm start keeps no momentum of its own; the free fall
+            // adds the exact impulse of gravity below.
+            let guess = body.fit(nodes, work, |n, w| scale(w.x, n.mass));
+            for (n, w) in nodes.iter().zip(work.iter_mut()) {
+                w.x = body.less_rigid(n, w.x, guess);
+            }
+        }
     }
     // Add the free fall to the guess and prescribe the held normals.
-    let keep = s.warm_start && !isolated;
+    let keep = warm && !isolated;
     // The bits of every guess component, sign bit shifted out, or-ed: zero
     // exactly when every component is ±0 (NaN counts as non-zero, as with
     // `!=`). Integer ors: on a Cortex-M4F, 15 instructions per node fewer
@@ -203,6 +219,9 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
     for (n, w) in nodes.iter().zip(work.iter_mut()) {
         if n.flags & FIXED != 0 {
             continue;
+        }
+        if !warm {
+            w.x = [0.0; 3];
         }
         if !keep {
             w.x = add(w.x, fall);
@@ -215,7 +234,7 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
     }
     let guess = nonzero != 0;
     // A uniform guess needs no element pass for `r = b − A x₀`.
-    let uniform = isolated && !s.warm_start;
+    let uniform = isolated && !warm;
 
     if guess && uniform {
         // r = b − (1 + h α_M) M c: K c = 0 exactly for the uniform c.
@@ -230,32 +249,10 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
     // compiles the step for another instruction set (a `#[target_feature]`
     // caller) gets them compiled for it too; a closure left out of line would
     // stay at the baseline. Elsewhere one out-of-line copy saves flash.
-    #[cfg(feature = "two-level")]
-    let whole = (kind != Preconditioner::Mass).then_some(
+    let project = {
+        let nodes = &*nodes;
         #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
-        |work: &mut [NodeWork]| {
-            crate::precond::apply(nodes, work, &mut pre, |i, z| {
-                filter(
-                    #[cfg(feature = "ground")]
-                    ground,
-                    nodes,
-                    i,
-                    z,
-                )
-            })
-        },
-    );
-    #[cfg(not(feature = "two-level"))]
-    let whole = None::<fn(&mut [NodeWork]) -> f32>;
-    let outcome = cg::solve(
-        work,
-        s.cg_iterations,
-        s.cg_tolerance,
-        from_guess,
-        // A guess is scaled unless it prescribes held normals.
-        held == 0,
-        #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
-        |i: usize, z: Vec3| -> Vec3 {
+        move |i: usize, z: Vec3| -> Vec3 {
             filter(
                 #[cfg(feature = "ground")]
                 ground,
@@ -263,12 +260,26 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
                 i,
                 z,
             )
-        },
-        whole,
-        // A d = (1 + h α_M) M d + h (α_K + h) K d (+ h² k/n d on grabbed nodes),
-        // into q = 0; returns dᵀ A d.
+        }
+    };
+    #[cfg(feature = "two-level")]
+    let whole = (kind != Preconditioner::Mass).then_some(
         #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
-        |work: &mut [NodeWork]| {
+        |work: &mut [NodeWork]| match rigid {
+            None => crate::precond::apply(nodes, work, &mut pre, project, project),
+            Some(body) => body.precondition(nodes, work, mass_coef, |work, input| {
+                crate::precond::apply(nodes, work, &mut pre, input, project)
+            }),
+        },
+    );
+    #[cfg(not(feature = "two-level"))]
+    let whole = None::<fn(&mut [NodeWork]) -> f32>;
+    // A d = (1 + h α_M) M d + h (α_K + h) K d (+ h² k/n d on grabbed nodes),
+    // into q = 0; returns dᵀ A d.
+    let apply = {
+        let nodes = &*nodes;
+        #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
+        move |work: &mut [NodeWork]| {
             pass::stiffness(b, per_young, elems, n_elems, work);
             let mut dq = 0.0f32;
             for (n, w) in nodes.iter().zip(work.iter_mut()) {
@@ -282,22 +293,33 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
                 dq += dot(w.d, w.q);
             }
             dq
-        },
+        }
+    };
+    let mut apply = apply;
+    let outcome = cg::solve(
+        work,
+        s.cg_iterations,
+        s.iteration_cap(),
+        s.cg_tolerance,
+        from_guess,
+        // A guess is scaled unless it prescribes held normals.
+        held == 0,
+        project,
+        whole,
+        &mut apply,
+        #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
+        |work: &[NodeWork]| certified(nodes, work, project, h * s.rayleigh_mass),
     );
+    if outcome.overflow {
+        return Err(StepError::Diverged);
+    }
+    if !outcome.certified {
+        galerkin(nodes, work, rigid, project, &mut apply);
+    }
 
     // Check, then apply. The new displacement and velocity (after the ground
     // projection) go into the spent CG scratch `d` and `q`, and the state is
     // written only if they and the tool force are all finite.
-    if outcome.overflow {
-        return Err(StepError::Diverged);
-    }
-    // A preconditioner other than the mass does not keep the momentum of an
-    // isolated body in its iterates: the rigid part of the residual is
-    // solved for exactly instead (DESIGN.md §4c).
-    #[cfg(feature = "two-level")]
-    if isolated && kind != Preconditioner::Mass {
-        restore_momentum(nodes, work, mass_coef);
-    }
     #[allow(unused_mut)] // only the tool adds to it
     let mut tool_force = [0.0f32; 3];
     // `probe` stays zero exactly while every value checked is finite
@@ -351,6 +373,7 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
     hdr.time += f64::from(h);
     Ok(StepStats {
         cg_iterations: outcome.iterations,
+        galerkin: !outcome.certified,
         cg_residual: outcome.residual,
         inverted: totals.inverted,
         contacts: held,
@@ -383,72 +406,254 @@ fn filter(
     z
 }
 
-/// Removes the net linear and angular momentum of the warm-start guess
-/// `Σ m x` and `Σ (p − c) × m x` (about the centre of mass `c`), so that a
-/// warm start keeps the momentum of an isolated body exact.
-fn remove_momentum(nodes: &[Node], work: &mut [NodeWork]) {
-    if let Some((c, vel, omega)) = rigid_fit(nodes, work, |n, w| scale(w.x, n.mass)) {
-        for (n, w) in nodes.iter().zip(work.iter_mut()) {
-            let r = sub(n.position(), c);
-            w.x = sub(sub(w.x, vel), cross(omega, r));
-        }
-    }
+/// The rigid motions of an isolated body about its centre of mass `c` at
+/// the step's start: translations, and with `rotations`, `ω × (p − c)`.
+#[derive(Clone, Copy)]
+struct Rigid {
+    c: Vec3,
+    inv_mass: f32,
+    /// `I = Σ m (|p − c|² I − (p − c)(p − c)ᵀ)`, with rotations.
+    inertia: Option<crate::math::Mat3>,
+    /// `Σ m (p − c)`, zero but for round-off.
+    first_moment: Vec3,
 }
 
-/// Adds to the solution the rigid velocity change that cancels the net
-/// force `Σ r` and torque `Σ (p − c) × r` of the residual: A applied to a
-/// rigid field is `mass_coef M` times it (K annihilates rigid fields), so
-/// `δv + ω × (p − c)` with `mass_coef M δv = Σ r` and
-/// `mass_coef I ω = Σ (p − c) × r` leaves a residual with neither, which is
-/// what the exact step's momentum needs.
-#[cfg(feature = "two-level")]
-fn restore_momentum(nodes: &[Node], work: &mut [NodeWork], mass_coef: f32) {
-    if let Some((c, vel, omega)) = rigid_fit(nodes, work, |_, w| w.r) {
-        let (vel, omega) = (scale(vel, 1.0 / mass_coef), scale(omega, 1.0 / mass_coef));
-        for (n, w) in nodes.iter().zip(work.iter_mut()) {
-            let r = sub(n.position(), c);
-            w.x = add(add(w.x, vel), cross(omega, r));
-        }
-    }
-}
+/// A rigid motion `(v, ω)`.
+type Motion = (Vec3, Vec3);
 
-/// The rigid motion `(c, v, ω)` whose momentum is that of the field
-/// `f(node, work)` (a momentum per node, or a force): `v = Σ f / Σ m`, and
-/// `ω = I⁻¹ Σ (p − c) × (f − m v)` with the inertia
-/// `I = Σ m (|p − c|² I − (p − c)(p − c)ᵀ)` about the centre of mass `c`.
-/// `None` for a body without mass.
-fn rigid_fit(
-    nodes: &[Node],
-    work: &[NodeWork],
-    f: impl Fn(&Node, &NodeWork) -> Vec3,
-) -> Option<(Vec3, Vec3, Vec3)> {
-    let (mut mass, mut mc, mut lin) = (0.0f32, [0.0f32; 3], [0.0f32; 3]);
-    for (n, w) in nodes.iter().zip(work.iter()) {
-        mass += n.mass;
-        mc = axpy(mc, n.mass, n.position());
-        lin = add(lin, f(n, w));
-    }
-    if !(mass > 0.0) {
-        return None;
-    }
-    let c = scale(mc, 1.0 / mass);
-    let vel = scale(lin, 1.0 / mass);
-    // Angular momentum L of the field about c and inertia I = Σ m (|r|² I − r rᵀ).
-    let mut l = [0.0f32; 3];
-    let mut inertia = [[0.0f32; 3]; 3];
-    for (n, w) in nodes.iter().zip(work.iter()) {
-        let r = sub(n.position(), c);
-        l = add(l, cross(r, axpy(f(n, w), -n.mass, vel)));
-        let r2 = dot(r, r);
-        for (a, row) in inertia.iter_mut().enumerate() {
-            for (b, iab) in row.iter_mut().enumerate() {
-                let delta = if a == b { r2 } else { 0.0 };
-                *iab += n.mass * (delta - r[a] * r[b]);
+impl Rigid {
+    /// `None` for a body without mass.
+    fn new(nodes: &[Node], rotations: bool) -> Option<Self> {
+        let (mut mass, mut mc) = (0.0f32, [0.0f32; 3]);
+        for n in nodes {
+            mass += n.mass;
+            mc = axpy(mc, n.mass, n.position());
+        }
+        if !(mass > 0.0) {
+            return None;
+        }
+        let c = scale(mc, 1.0 / mass);
+        let mut inertia = [[0.0f32; 3]; 3];
+        let mut first_moment = [0.0f32; 3];
+        for n in nodes {
+            let r = sub(n.position(), c);
+            first_moment = axpy(first_moment, n.mass, r);
+            let r2 = dot(r, r);
+            for (a, row) in inertia.iter_mut().enumerate() {
+                for (b, iab) in row.iter_mut().enumerate() {
+                    let delta = if a == b { r2 } else { 0.0 };
+                    *iab += n.mass * (delta - r[a] * r[b]);
+                }
             }
         }
+        Some(Self {
+            c,
+            inv_mass: 1.0 / mass,
+            inertia: rotations.then_some(inertia),
+            first_moment,
+        })
     }
-    let omega = solve3(&inertia, l).unwrap_or([0.0; 3]);
-    Some((c, vel, omega))
+
+    /// The rigid motion whose momentum is that of the field `f(node, work)`
+    /// (a momentum per node, or a force): `v = Σ f / Σ m` and
+    /// `ω = I⁻¹ Σ (p − c) × (f − m v)`, in one pass over the nodes.
+    fn fit(
+        &self,
+        nodes: &[Node],
+        work: &[NodeWork],
+        f: impl Fn(&Node, &NodeWork) -> Vec3,
+    ) -> Motion {
+        let (mut lin, mut ang) = ([0.0f32; 3], [0.0f32; 3]);
+        for (n, w) in nodes.iter().zip(work.iter()) {
+            let fi = f(n, w);
+            lin = add(lin, fi);
+            if self.inertia.is_some() {
+                ang = add(ang, cross(sub(n.position(), self.c), fi));
+            }
+        }
+        let vel = scale(lin, self.inv_mass);
+        let omega = self
+            .inertia
+            .and_then(|i| solve3(&i, sub(ang, cross(self.first_moment, vel))))
+            .unwrap_or([0.0; 3]);
+        (vel, omega)
+    }
+
+    /// The motion `m` at node `n`.
+    #[inline(always)]
+    fn at(&self, n: &Node, m: Motion) -> Vec3 {
+        add(m.0, cross(m.1, sub(n.position(), self.c)))
+    }
+
+    /// `a` at node `n` less the rigid motion `m`.
+    #[inline(always)]
+    fn less_rigid(&self, n: &Node, a: Vec3, m: Motion) -> Vec3 {
+        sub(a, self.at(n, m))
+    }
+
+    /// A preconditioner `P` made exact on the rigid modes `R`:
+    /// `z = Π P⁻¹ Πᵀ r + R (RᵀAR)⁻¹ Rᵀ r`, with `Π = I − R (RᵀMR)⁻¹ RᵀM`
+    /// and `RᵀAR = (1 + h α_M) RᵀMR` (`K R = 0`). Both the rigid modes and
+    /// their `M`-orthogonal complement are then invariant under `P⁻¹A`, so
+    /// every CG iterate keeps the exact step's response to the rigid modes,
+    /// as the mass preconditioner does. `apply(work, input)` sets every `q`
+    /// to `P⁻¹` of `input(i, rᵢ)` and returns anything; this returns `rᵀz`,
+    /// with `z` in `q`.
+    #[cfg(feature = "two-level")]
+    #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
+    fn precondition(
+        &self,
+        nodes: &[Node],
+        work: &mut [NodeWork],
+        mass_coef: f32,
+        apply: impl FnOnce(&mut [NodeWork], &dyn Fn(usize, Vec3) -> Vec3) -> f32,
+    ) -> f32 {
+        // Πᵀ r = r − M R (RᵀMR)⁻¹ Rᵀ r: the residual less the rigid motion
+        // `force` of the same net force and torque, times the mass.
+        let force = self.fit(nodes, work, |_, w| w.r);
+        let input = |i: usize, r: Vec3| match nodes.get(i) {
+            Some(n) => axpy(r, -n.mass, self.at(n, force)),
+            None => r,
+        };
+        apply(work, &input);
+        // Π z̃ = z̃ less its rigid motion, plus the rigid modes' exact part.
+        let kept = self.fit(nodes, work, |n, w| scale(w.q, n.mass));
+        let mut rz = 0.0f32;
+        for (n, w) in nodes.iter().zip(work.iter_mut()) {
+            let z = self.less_rigid(n, w.q, kept);
+            w.q = axpy(z, 1.0 / mass_coef, self.at(n, force));
+            rz += dot(w.r, w.q);
+        }
+        rz
+    }
+}
+
+/// The energy certificate of a truncated solve. Linearised at the current
+/// state, a step that solves `A Δv = b − r` changes the kinetic plus elastic
+/// energy by (with `v' = v + Δv`, the tool's spring counted with `K`)
+///
+/// ```text
+/// h v'ᵀf_ext − v'ᵀr − ½ ΔvᵀMΔv − (h²/2 + h α_K) v'ᵀKv' − h α_M v'ᵀMv'
+/// ```
+///
+/// (expand `v'ᵀ M Δv` with `M Δv = b − r − h α_M M Δv − h (α_K + h) K Δv`
+/// and add `E(x + h v') − E(x) ≈ −h f_elᵀv' + ½ h² v'ᵀKv'`). The exact step
+/// has `r = 0` and only dissipates; a truncated one is accepted when its
+/// residual injects no more than the dissipation the step has anyway:
+/// `−v'ᵀ S r ≤ ½ ΔvᵀMΔv + h α_M v'ᵀMv' + ε KE`. The `K` terms are left out
+/// (they need another product; leaving out a dissipation only makes the test
+/// stricter). `S` filters the held ground normals (the ground's force does
+/// no work on a node it holds still); fixed nodes do not move.
+/// `ε = f32::EPSILON`: the kinetic energy `KE`, a sum of f32 terms, is not
+/// known more finely, so a finer test would reject round-off.
+///
+#[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
+fn certified(
+    nodes: &[Node],
+    work: &[NodeWork],
+    project: impl Fn(usize, Vec3) -> Vec3,
+    h_alpha_m: f32,
+) -> bool {
+    let (mut inject, mut dissipate, mut kinetic) = (0.0f32, 0.0f32, 0.0f32);
+    for (i, (n, w)) in nodes.iter().zip(work.iter()).enumerate() {
+        if n.flags & FIXED != 0 {
+            continue;
+        }
+        let dv = w.x;
+        let v1 = add(n.v, dv);
+        inject -= dot(v1, project(i, w.r));
+        dissipate += n.mass * (0.5 * dot(dv, dv) + h_alpha_m * dot(v1, v1));
+        kinetic += n.mass * dot(n.v, n.v);
+    }
+    inject <= dissipate + f32::EPSILON * 0.5 * kinetic
+}
+
+/// The Galerkin step that ends a solve without an energy certificate: the
+/// solution is replaced by the best one (least energy norm of the error) in
+/// `x₀ + span{P Δv, P v}`, where `P` takes the part that CG may change (the
+/// filter `S` of held normals and fixed nodes, or for an isolated body, the
+/// part without the rigid motion of the same momentum), and `x₀` keeps the
+/// rest (held normals; for an isolated body, the rigid part, which the
+/// preconditioners keep exact). The new residual is then orthogonal to both
+/// directions (and, for an isolated body, still free of net force and
+/// torque: `A` maps the `M`-orthogonal directions to forces without them),
+/// so `v'ᵀ S r = 0`: the truncation adds no energy.
+///
+/// The second direction is made `A`-orthogonal to the first and multiplied
+/// by `A` again rather than updated: where a stiff step all but stops the
+/// deformation, `A P v` and `A P Δv` are nearly parallel and their
+/// difference cancels to noise in f32. Three products with `A` in all.
+#[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
+fn galerkin(
+    nodes: &[Node],
+    work: &mut [NodeWork],
+    rigid: Option<Rigid>,
+    project: impl Fn(usize, Vec3) -> Vec3,
+    mut apply: impl FnMut(&mut [NodeWork]) -> f32,
+) {
+    let none = ([0.0; 3], [0.0; 3]);
+    let (fit_x, fit_v) = match rigid {
+        Some(body) => (
+            body.fit(nodes, work, |n, w| scale(w.x, n.mass)),
+            body.fit(nodes, work, |n, _| scale(n.v, n.mass)),
+        ),
+        None => (none, none),
+    };
+    // `P a` at node `i`, with the rigid motion `fit` of the field `a`.
+    let part = |i: usize, n: &Node, a: Vec3, fit: Motion| -> Vec3 {
+        if n.flags & FIXED != 0 {
+            return [0.0; 3];
+        }
+        match rigid {
+            Some(body) => body.less_rigid(n, a, fit),
+            None => project(i, a),
+        }
+    };
+    // Along e = P Δv: Δv += a e, with a = eᵀr / eᵀAe. Since P is a
+    // projection, P Δv is then (1 + a) e, with A-norm² (1 + a)² eᵀAe.
+    for (i, (n, w)) in nodes.iter().zip(work.iter_mut()).enumerate() {
+        w.d = part(i, n, w.x, fit_x);
+        w.q = [0.0; 3];
+    }
+    let eae = apply(work);
+    let mut e_norm = 0.0f32;
+    if eae > 0.0 && eae.is_finite() {
+        let er = work.iter().fold(0.0f32, |s, w| s + dot(w.d, w.r));
+        let a = er / eae;
+        for w in work.iter_mut() {
+            w.x = axpy(w.x, a, w.d);
+            w.r = axpy(w.r, -a, w.q);
+        }
+        e_norm = (1.0 + a) * (1.0 + a) * eae;
+    }
+    // Along f = P v, made A-orthogonal to e = P Δv.
+    for (i, (n, w)) in nodes.iter().zip(work.iter_mut()).enumerate() {
+        w.d = part(i, n, n.v, fit_v);
+        w.q = [0.0; 3];
+    }
+    let mut faf = apply(work);
+    if e_norm > 0.0 && e_norm.is_finite() && faf.is_finite() {
+        let mut eaf = 0.0f32;
+        for (i, (n, w)) in nodes.iter().zip(work.iter()).enumerate() {
+            eaf += dot(part(i, n, w.x, fit_x), w.q);
+        }
+        let c = eaf / e_norm;
+        if c != 0.0 && c.is_finite() {
+            for (i, (n, w)) in nodes.iter().zip(work.iter_mut()).enumerate() {
+                w.d = axpy(w.d, -c, part(i, n, w.x, fit_x));
+                w.q = [0.0; 3];
+            }
+            faf = apply(work);
+        }
+    }
+    if faf > 0.0 && faf.is_finite() {
+        let fr = work.iter().fold(0.0f32, |s, w| s + dot(w.d, w.r));
+        let beta = fr / faf;
+        for w in work.iter_mut() {
+            w.x = axpy(w.x, beta, w.d);
+            w.r = axpy(w.r, -beta, w.q);
+        }
+    }
 }
 
 /// Makes the preconditioner's data current for this step and returns the
