@@ -249,14 +249,20 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
     // compiles the step for another instruction set (a `#[target_feature]`
     // caller) gets them compiled for it too; a closure left out of line would
     // stay at the baseline. Elsewhere one out-of-line copy saves flash.
+    // The operator and the filter are `Copy` closures (they capture shared
+    // references only), passed by value wherever they go: a reference to a
+    // closure would call it through a forwarding function that is not
+    // compiled for the caller's instruction set (measured 8× slower with
+    // AVX2), where the closure passed by value is inlined into its caller.
+    let nodes_ro: &[Node] = nodes;
+    let elems_ro: &[crate::element::ElementBlock] = elems;
     let project = {
-        let nodes = &*nodes;
         #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
         move |i: usize, z: Vec3| -> Vec3 {
             filter(
                 #[cfg(feature = "ground")]
                 ground,
-                nodes,
+                nodes_ro,
                 i,
                 z,
             )
@@ -267,9 +273,17 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
         #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
         |work: &mut [NodeWork]| match rigid {
             None => crate::precond::apply(nodes, work, &mut pre, project, project),
-            Some(body) => body.precondition(nodes, work, mass_coef, |work, input| {
-                crate::precond::apply(nodes, work, &mut pre, input, project)
-            }),
+            Some(body) => {
+                // Rigid modes exact (`Rigid::finish`): P⁻¹ of the residual
+                // less the rigid motion of its net force and torque.
+                let force = body.fit(nodes_ro, work, |_, w| w.r);
+                let input = |i: usize, r: Vec3| match nodes_ro.get(i) {
+                    Some(n) => axpy(r, -n.mass, body.at(n, force)),
+                    None => r,
+                };
+                crate::precond::apply(nodes_ro, work, &mut pre, input, project);
+                body.finish(nodes_ro, work, mass_coef, force)
+            }
         },
     );
     #[cfg(not(feature = "two-level"))]
@@ -277,12 +291,11 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
     // A d = (1 + h α_M) M d + h (α_K + h) K d (+ h² k/n d on grabbed nodes),
     // into q = 0; returns dᵀ A d.
     let apply = {
-        let nodes = &*nodes;
         #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
         move |work: &mut [NodeWork]| {
-            pass::stiffness(b, per_young, elems, n_elems, work);
+            pass::stiffness(b, per_young, elems_ro, n_elems, work);
             let mut dq = 0.0f32;
-            for (n, w) in nodes.iter().zip(work.iter_mut()) {
+            for (n, w) in nodes_ro.iter().zip(work.iter_mut()) {
                 #[allow(unused_mut)] // only the tool adds to it
                 let mut p = mass_coef * n.mass;
                 #[cfg(feature = "tool")]
@@ -295,7 +308,6 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
             dq
         }
     };
-    let mut apply = apply;
     let outcome = cg::solve(
         work,
         s.cg_iterations,
@@ -306,7 +318,7 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
         held == 0,
         project,
         whole,
-        &mut apply,
+        apply,
         #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
         |work: &[NodeWork]| certified(nodes, work, project, h * s.rayleigh_mass),
     );
@@ -314,7 +326,7 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
         return Err(StepError::Diverged);
     }
     if !outcome.certified {
-        galerkin(nodes, work, rigid, project, &mut apply);
+        galerkin(nodes, work, rigid, project, apply);
     }
 
     // Check, then apply. The new displacement and velocity (after the ground
@@ -457,6 +469,7 @@ impl Rigid {
     /// The rigid motion whose momentum is that of the field `f(node, work)`
     /// (a momentum per node, or a force): `v = Σ f / Σ m` and
     /// `ω = I⁻¹ Σ (p − c) × (f − m v)`, in one pass over the nodes.
+    #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
     fn fit(
         &self,
         nodes: &[Node],
@@ -491,31 +504,18 @@ impl Rigid {
         sub(a, self.at(n, m))
     }
 
-    /// A preconditioner `P` made exact on the rigid modes `R`:
+    /// Completes a preconditioner `P` made exact on the rigid modes `R`:
     /// `z = Π P⁻¹ Πᵀ r + R (RᵀAR)⁻¹ Rᵀ r`, with `Π = I − R (RᵀMR)⁻¹ RᵀM`
     /// and `RᵀAR = (1 + h α_M) RᵀMR` (`K R = 0`). Both the rigid modes and
     /// their `M`-orthogonal complement are then invariant under `P⁻¹A`, so
     /// every CG iterate keeps the exact step's response to the rigid modes,
-    /// as the mass preconditioner does. `apply(work, input)` sets every `q`
-    /// to `P⁻¹` of `input(i, rᵢ)` and returns anything; this returns `rᵀz`,
-    /// with `z` in `q`.
+    /// as the mass preconditioner does. The caller has set every `q` to
+    /// `P⁻¹ Πᵀ r`, that is `P⁻¹` of `rᵢ − mᵢ force(pᵢ)`, where `force` is the
+    /// [`Rigid::fit`] of `r` (the rigid motion of the residual's net force
+    /// and torque); this makes `q = z` and returns `rᵀz`.
     #[cfg(feature = "two-level")]
     #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
-    fn precondition(
-        &self,
-        nodes: &[Node],
-        work: &mut [NodeWork],
-        mass_coef: f32,
-        apply: impl FnOnce(&mut [NodeWork], &dyn Fn(usize, Vec3) -> Vec3) -> f32,
-    ) -> f32 {
-        // Πᵀ r = r − M R (RᵀMR)⁻¹ Rᵀ r: the residual less the rigid motion
-        // `force` of the same net force and torque, times the mass.
-        let force = self.fit(nodes, work, |_, w| w.r);
-        let input = |i: usize, r: Vec3| match nodes.get(i) {
-            Some(n) => axpy(r, -n.mass, self.at(n, force)),
-            None => r,
-        };
-        apply(work, &input);
+    fn finish(&self, nodes: &[Node], work: &mut [NodeWork], mass_coef: f32, force: Motion) -> f32 {
         // Π z̃ = z̃ less its rigid motion, plus the rigid modes' exact part.
         let kept = self.fit(nodes, work, |n, w| scale(w.q, n.mass));
         let mut rz = 0.0f32;
@@ -616,16 +616,7 @@ fn galerkin(
         w.q = [0.0; 3];
     }
     let eae = apply(work);
-    let mut e_norm = 0.0f32;
-    if eae > 0.0 && eae.is_finite() {
-        let er = work.iter().fold(0.0f32, |s, w| s + dot(w.d, w.r));
-        let a = er / eae;
-        for w in work.iter_mut() {
-            w.x = axpy(w.x, a, w.d);
-            w.r = axpy(w.r, -a, w.q);
-        }
-        e_norm = (1.0 + a) * (1.0 + a) * eae;
-    }
+    let e_norm = descend(work, eae).map_or(0.0, |a| (1.0 + a) * (1.0 + a) * eae);
     // Along f = P v, made A-orthogonal to e = P Δv.
     for (i, (n, w)) in nodes.iter().zip(work.iter_mut()).enumerate() {
         w.d = part(i, n, n.v, fit_v);
@@ -646,14 +637,23 @@ fn galerkin(
             faf = apply(work);
         }
     }
-    if faf > 0.0 && faf.is_finite() {
-        let fr = work.iter().fold(0.0f32, |s, w| s + dot(w.d, w.r));
-        let beta = fr / faf;
-        for w in work.iter_mut() {
-            w.x = axpy(w.x, beta, w.d);
-            w.r = axpy(w.r, -beta, w.q);
-        }
+    descend(work, faf);
+}
+
+/// The exact line search along `d` (with `q = A d`, `dad = dᵀAd`):
+/// `x += a d`, `r −= a q` with `a = dᵀr / dᵀAd`, after which `dᵀr = 0`.
+/// Returns `a`, or `None` (nothing changed) for a direction without
+/// positive, finite curvature.
+fn descend(work: &mut [NodeWork], dad: f32) -> Option<f32> {
+    if !(dad > 0.0 && dad.is_finite()) {
+        return None;
     }
+    let a = work.iter().fold(0.0f32, |s, w| s + dot(w.d, w.r)) / dad;
+    for w in work.iter_mut() {
+        w.x = axpy(w.x, a, w.d);
+        w.r = axpy(w.r, -a, w.q);
+    }
+    Some(a)
 }
 
 /// Makes the preconditioner's data current for this step and returns the
