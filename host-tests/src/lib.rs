@@ -40,20 +40,17 @@ pub fn shared_meshes() -> Option<PathBuf> {
     dir.is_dir().then_some(dir)
 }
 
-/// Loads a shared mesh by file name, or prints a SKIPPED notice and returns
-/// `None` when the shared folder is absent. With `COROFEM_REQUIRE_MESHES=1`
-/// (set by `.ci/run`) a missing folder is a failure, so CI cannot skip silently.
-pub fn shared_mesh(name: &str) -> Option<CoreMesh> {
-    let Some(dir) = shared_meshes() else {
-        assert!(
-            std::env::var_os("COROFEM_REQUIRE_MESHES").is_none(),
-            "COROFEM_REQUIRE_MESHES is set but ../shared/meshes is missing"
-        );
-        eprintln!("SKIPPED: ../shared/meshes not found, test needing {name} did not run");
-        return None;
-    };
+/// Loads a shared mesh by file name.
+///
+/// A test that needs one is marked
+/// `#[cfg_attr(not(shared_meshes), ignore = "needs ../shared/meshes")]`: the
+/// build script sets `shared_meshes` when the folder exists, so without it
+/// `cargo test` lists those tests as ignored, with the reason. Run anyway
+/// (`--ignored`), this panics naming the missing folder.
+pub fn shared_mesh(name: &str) -> CoreMesh {
+    let dir = shared_meshes().expect("this test needs ../shared/meshes");
     let mesh = corofem_io::read_mesh(&dir.join(name)).expect("shared mesh reads");
-    Some(CoreMesh {
+    CoreMesh {
         nodes: mesh
             .nodes
             .iter()
@@ -64,7 +61,7 @@ pub fn shared_mesh(name: &str) -> Option<CoreMesh> {
             .iter()
             .map(|t| [t[0] as u32, t[1] as u32, t[2] as u32, t[3] as u32])
             .collect(),
-    })
+    }
 }
 
 /// A generated box mesh.

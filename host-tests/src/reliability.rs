@@ -94,21 +94,23 @@ fn body(name: &'static str, mesh: CoreMesh, fixed: Vec<u32>, count: usize, reach
 }
 
 /// SOFA's liver scaled to 0.2 m (as examples/scenes/liver_pull.toml), held
-/// at SOFA's three nodes 3, 39 and 64.
-pub fn liver() -> Option<Body> {
-    let mut mesh = shared_mesh("sofa_liver.tetmesh")?;
+/// at SOFA's three nodes 3, 39 and 64. Needs the shared meshes
+/// ([`shared_mesh`]).
+pub fn liver() -> Body {
+    let mut mesh = shared_mesh("sofa_liver.tetmesh");
     for p in &mut mesh.nodes {
         *p = p.map(|c| c * 0.03);
     }
-    Some(body("liver", mesh, vec![3, 39, 64], 10, 1.5))
+    body("liver", mesh, vec![3, 39, 64], 10, 1.5)
 }
 
-/// The Stanford bunny (fTetWild, 1k tets, 0.155 m), held at its lowest nodes.
-pub fn bunny() -> Option<Body> {
-    let mesh = shared_mesh("bunny_ftw_1k.tetmesh")?;
+/// The Stanford bunny (fTetWild, 1k tets, 0.155 m), held at its lowest
+/// nodes. Needs the shared meshes ([`shared_mesh`]).
+pub fn bunny() -> Body {
+    let mesh = shared_mesh("bunny_ftw_1k.tetmesh");
     let zmin = mesh.nodes.iter().map(|p| p[2]).fold(f32::MAX, f32::min);
     let fixed = mesh.select(|p| p[2] < zmin + 0.01);
-    Some(body("bunny", mesh, fixed, 10, 1.5))
+    body("bunny", mesh, fixed, 10, 1.5)
 }
 
 /// A 1 × 0.2 × 0.2 m beam of 10 × 2 × 2 cubes (240 tets), clamped at x = 0:

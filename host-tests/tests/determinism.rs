@@ -154,10 +154,9 @@ fn golden_hashes() {
 /// frame or the polar rotation search leaves its regular path). Every step's
 /// state and statistics must have the same bits.
 #[test]
+#[cfg_attr(not(shared_meshes), ignore = "needs ../shared/meshes")]
 fn fast_step_has_the_bits_of_the_baseline_when_elements_invert() {
-    let Some(mesh) = corofem_host_tests::shared_mesh("sofa_liver.tetmesh") else {
-        return;
-    };
+    let mesh = corofem_host_tests::shared_mesh("sofa_liver.tetmesh");
     assert_ne!(mesh.tets.len() % corofem::ELEMENTS_PER_BLOCK, 0);
     for &method in Method::COMPILED {
         let material = Material {

@@ -110,10 +110,9 @@ fn drift_with(
 }
 
 #[test]
+#[cfg_attr(not(shared_meshes), ignore = "needs ../shared/meshes")]
 fn isolated_body_keeps_its_momentum_at_any_cg_budget() {
-    let Some(mesh) = shared_mesh("sofa_liver.tetmesh") else {
-        return;
-    };
+    let mesh = shared_mesh("sofa_liver.tetmesh");
     let steps = 200;
     for (cg, warm) in [(1, false), (2, false), (5, false), (5, true)] {
         let (dp, dl) = drift(&mesh, Method::Qr, cg, warm, steps);
@@ -150,10 +149,9 @@ fn isolated_body_keeps_its_momentum_at_any_cg_budget() {
 /// their iterates; the step restores it from the residual's net force and
 /// torque. The same bound as the mass preconditioner's.
 #[test]
+#[cfg_attr(not(shared_meshes), ignore = "needs ../shared/meshes")]
 fn stiffness_preconditioners_keep_momentum_at_any_cg_budget() {
-    let Some(mesh) = shared_mesh("sofa_liver.tetmesh") else {
-        return;
-    };
+    let mesh = shared_mesh("sofa_liver.tetmesh");
     for pre in [Preconditioner::BlockJacobi, Preconditioner::TwoLevel] {
         for (cg, warm) in [(1, false), (3, true), (5, true), (20, false)] {
             let (dp, dl) = drift_with(&mesh, Method::Qr, pre, cg, warm, 200);

@@ -68,10 +68,9 @@ fn trajectory(mut s: VecScene, steps: usize) -> Vec<Vec<[f64; 3]>> {
 }
 
 #[test]
+#[cfg_attr(not(shared_meshes), ignore = "needs ../shared/meshes")]
 fn converged_solves_agree_whatever_the_preconditioner() {
-    let Some(mesh) = shared_mesh("sofa_liver.tetmesh") else {
-        return;
-    };
+    let mesh = shared_mesh("sofa_liver.tetmesh");
     let steps = 20;
     let reference = trajectory(hanging(&mesh, Preconditioner::Mass, 500, false), steps);
     for pre in [Preconditioner::BlockJacobi, Preconditioner::TwoLevel] {
@@ -89,10 +88,9 @@ fn converged_solves_agree_whatever_the_preconditioner() {
 }
 
 #[test]
+#[cfg_attr(not(shared_meshes), ignore = "needs ../shared/meshes")]
 fn three_two_level_iterations_stay_within_a_percent_of_converged_steps() {
-    let Some(mesh) = shared_mesh("sofa_liver.tetmesh") else {
-        return;
-    };
+    let mesh = shared_mesh("sofa_liver.tetmesh");
     let steps = 100;
     let reference = trajectory(hanging(&mesh, Preconditioner::Mass, 500, false), steps);
     let two_level = relative(
@@ -125,10 +123,9 @@ fn bits_after_steps(mut s: VecScene, steps: usize) -> Vec<[u32; 3]> {
 }
 
 #[test]
+#[cfg_attr(not(shared_meshes), ignore = "needs ../shared/meshes")]
 fn settings_that_leave_the_system_matrix_keep_the_coarse_factor() {
-    let Some(mesh) = shared_mesh("sofa_liver.tetmesh") else {
-        return;
-    };
+    let mesh = shared_mesh("sofa_liver.tetmesh");
     // The factor is prepared on the first step, at rest. Prepared again at
     // the sagged state of step 5, it would differ, and so would the bits of
     // the steps after it.

@@ -61,10 +61,9 @@ fn beam_and_slivers_survive_extremes() {
 }
 
 #[test]
+#[cfg_attr(not(shared_meshes), ignore = "needs ../shared/meshes")]
 fn liver_and_bunny_survive_extremes() {
-    let (Some(liver), Some(bunny)) = (reliability::liver(), reliability::bunny()) else {
-        return;
-    };
+    let (liver, bunny) = (reliability::liver(), reliability::bunny());
     sweep(
         &liver,
         Method::Qr,
@@ -88,10 +87,9 @@ fn liver_and_bunny_survive_extremes() {
 /// same case; the QR state stays finite (steps are refused once it would
 /// overflow).
 #[test]
+#[cfg_attr(not(shared_meshes), ignore = "needs ../shared/meshes")]
 fn soft_liver_limit_of_qr_and_polar_recovery() {
-    let Some(liver) = reliability::liver() else {
-        return;
-    };
+    let liver = reliability::liver();
     let polar = reliability::run_case(&liver, young(1.0e2), Method::Polar, 200_000);
     assert!(polar.passed, "{}", polar.note);
     let qr = reliability::run_case(&liver, young(1.0e2), Method::Qr, 20_000);
@@ -104,16 +102,16 @@ fn soft_liver_limit_of_qr_and_polar_recovery() {
 
 /// 20 000 steps of random drags of the liver (the long run is 1 000 000)
 /// with `method`, checked for what every method must do: no refused step,
-/// everything finite. `None` without the shared meshes.
-fn short_soak(method: Method) -> Option<reliability::Soak> {
-    let liver = reliability::liver()?;
+/// everything finite.
+fn short_soak(method: Method) -> reliability::Soak {
+    let liver = reliability::liver();
     let s = reliability::soak(&liver, method, 20_000, 10_000, 2005);
     eprintln!("{method:?}: {s:?}");
     assert!(s.finite, "{s:?}");
     assert_eq!(s.refused, 0, "{s:?}");
     assert!(s.checks >= 1, "{s:?}");
     assert!(s.drags >= 10, "{s:?}");
-    Some(s)
+    s
 }
 
 /// The short soak with QR. Its shape after the 10 s rest is printed, not
@@ -125,6 +123,7 @@ fn short_soak(method: Method) -> Option<reliability::Soak> {
 /// trial order (this seed among them): which seeds tangle depends on the
 /// bits, how often does not.
 #[test]
+#[cfg_attr(not(shared_meshes), ignore = "needs ../shared/meshes")]
 fn liver_soak_short() {
     short_soak(Method::Qr);
 }
@@ -134,8 +133,8 @@ fn liver_soak_short() {
 /// at every check of the long soak, where QR stayed tangled:
 /// docs/reliability.md).
 #[test]
+#[cfg_attr(not(shared_meshes), ignore = "needs ../shared/meshes")]
 fn liver_soak_short_polar_recovers() {
-    if let Some(s) = short_soak(Method::Polar) {
-        assert!(s.worst_recovery < RECOVERED, "{s:?}");
-    }
+    let s = short_soak(Method::Polar);
+    assert!(s.worst_recovery < RECOVERED, "{s:?}");
 }

@@ -6,11 +6,10 @@ use corofem::{Error, Material, Method, Parameter};
 use corofem_host_tests::{shared_mesh, Rng};
 
 #[test]
+#[cfg_attr(not(shared_meshes), ignore = "needs ../shared/meshes")]
 fn equals_the_force_derivative_at_rest_on_real_meshes() {
     for name in ["liver_ftw_3k.tetmesh", "bunny_ftw_1k.tetmesh"] {
-        let Some(mesh) = shared_mesh(name) else {
-            return;
-        };
+        let mesh = shared_mesh(name);
         let material = Material {
             young: 1.0e5,
             poisson: 0.4,
@@ -56,10 +55,9 @@ fn equals_the_force_derivative_at_rest_on_real_meshes() {
 }
 
 #[test]
+#[cfg_attr(not(shared_meshes), ignore = "needs ../shared/meshes")]
 fn refuses_bad_input_and_leaves_the_state_alone() {
-    let Some(mesh) = shared_mesh("sofa_liver.tetmesh") else {
-        return;
-    };
+    let mesh = shared_mesh("sofa_liver.tetmesh");
     let material = Material {
         young: 3.0e4,
         poisson: 0.45,

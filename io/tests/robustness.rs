@@ -139,10 +139,9 @@ fn corrupted_small_files_never_panic() {
 }
 
 #[test]
+#[cfg_attr(not(shared_meshes), ignore = "needs ../shared/meshes")]
 fn corrupted_liver_files_never_panic() {
-    let Some(dir) = shared_meshes() else {
-        return;
-    };
+    let dir = shared_meshes();
     let liver = corofem_io::read_mesh(&dir.join("sofa_liver.tetmesh")).unwrap();
     run(&liver, 150, 0x2545_F491_4F6C_DD1D);
 }

@@ -37,25 +37,22 @@ impl Drop for TempDir {
     }
 }
 
-/// The shared test meshes (`../shared/meshes` beside the repository), or `None`
-/// after printing a SKIPPED line if the folder is absent.
-pub fn shared_meshes() -> Option<PathBuf> {
+/// The shared test meshes (`../shared/meshes` beside the repository).
+///
+/// A test that needs them is marked
+/// `#[cfg_attr(not(shared_meshes), ignore = "needs ../shared/meshes")]`: the
+/// build script sets `shared_meshes` when the folder exists, so without it
+/// `cargo test` lists those tests as ignored. Run anyway (`--ignored`), this
+/// panics naming the folder.
+pub fn shared_meshes() -> PathBuf {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/meshes");
-    if dir.is_dir() {
-        Some(dir)
-    } else {
-        println!(
-            "SKIPPED: ../shared/meshes not found (looked in {})",
-            dir.display()
-        );
-        None
-    }
+    assert!(dir.is_dir(), "this test needs {}", dir.display());
+    dir
 }
 
-/// Reads a shared `.tetmesh`, or `None` (with a SKIPPED line) without the folder.
-pub fn shared_tetmesh(name: &str) -> Option<Mesh> {
-    let dir = shared_meshes()?;
-    Some(corofem_io::read_mesh(&dir.join(name)).expect("shared mesh must read"))
+/// Reads a shared mesh file ([`shared_meshes`]).
+pub fn shared_tetmesh(name: &str) -> Mesh {
+    corofem_io::read_mesh(&shared_meshes().join(name)).expect("shared mesh must read")
 }
 
 /// Asserts that two meshes have the same connectivity and coordinates equal
