@@ -133,6 +133,8 @@ mod diagnostics;
 mod fpu_product;
 #[cfg(feature = "ground")]
 mod ground;
+#[cfg(feature = "nalgebra")]
+pub mod na;
 #[cfg(feature = "statics")]
 mod statics;
 #[cfg(feature = "tool")]
