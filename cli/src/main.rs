@@ -1,9 +1,8 @@
 //! `corofem`: runs corofem scenes from TOML files (results as JSON, optionally
 //! a VTK time series) and describes mesh files.
 //!
-//! The scene and result formats are specified in SCENE_FORMAT.md; the keys
-//! this program adds are listed in the README next to this crate and in
-//! `corofem run --help`.
+//! The scene and result formats are described in docs/scene-format.md and
+//! summarised by `corofem run --help`.
 
 mod info;
 mod mesh_input;
@@ -58,7 +57,8 @@ enum Command {
 }
 
 const RUN_HELP: &str = "\
-Scene keys beyond SCENE_FORMAT.md:
+The scene file (TOML) and the result file (JSON) are described key by key in
+docs/scene-format.md. Among the scene keys:
   [mesh]   reorient = true          swap nodes of negatively oriented tets instead of
                                     rejecting the mesh (default false)
   [solver] warm_start = true        start CG from the previous step's solution, scaled to the
@@ -73,12 +73,10 @@ Defaults: [material] young 1e6, poisson 0.3, density 1000; [solver] method \"qr\
 dt 0.001, cg_iterations 5 (400 for a static solve), cg_tolerance 0 (1e-4 static),
 no damping; [world] gravity [0, 0, -9.81]; [output] every 10; [tool] path [[0, 0, 0, 0]].
 
-Result keys beyond SCENE_FORMAT.md: for a static solve, \"steps\" counts Newton
-iterations, \"static\": {\"converged\": bool}, and each history record adds
-\"newton_residual\" and \"newton_update\"; its \"step\" is the iteration count, \"t\" is 0.
-timing.total_s is the wall time of the stepping loop including diagnostics and VTK output.
-
-More in cli/README.md.
+Result of a static solve: \"steps\" counts Newton iterations, \"static\": {\"converged\": bool},
+and each history record adds \"newton_residual\" and \"newton_update\"; its \"step\" is
+the iteration count, \"t\" is 0. timing.total_s is the wall time of the stepping loop
+including diagnostics and VTK output.
 
 The result file is written whole at the end (temporary file + rename): a failed run
 leaves none. Exit status: 0 on success, 1 on any error, 2 on bad command-line usage.";

@@ -1,4 +1,4 @@
-//! The result file (`corofem-result 1`, see SCENE_FORMAT.md): its JSON
+//! The result file (`corofem-result 1`, see docs/scene-format.md): its JSON
 //! structures, a compact-but-readable layout, and an all-or-nothing write.
 
 use std::fs;
@@ -45,7 +45,7 @@ pub struct MeshCounts {
     pub tets: usize,
 }
 
-/// `static` key (added to the format): outcome of a static solve.
+/// `static` key: outcome of a static solve.
 #[derive(Debug, Clone, Copy, Serialize)]
 pub struct StaticOutcome {
     /// The last Newton iteration met the force or update tolerance.

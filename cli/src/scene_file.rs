@@ -16,9 +16,7 @@ use crate::error::{CliError, CliResult};
 use crate::tool_path::ToolPath;
 
 // ---------------------------------------------------------------------------
-// Raw TOML structures: exactly the keys of SCENE_FORMAT.md plus the documented
-// additions (`[mesh] reorient`, `[solver] warm_start`, `newton_iterations`,
-// `newton_tolerance`).
+// Raw TOML structures: exactly the keys of docs/scene-format.md.
 // ---------------------------------------------------------------------------
 
 #[derive(Debug, Deserialize)]
