@@ -114,10 +114,12 @@ typedef struct {
     uint32_t method;
     // Time step (s, > 0). Default 0.001.
     float dt;
-    // Most CG iterations per step (≥ 1). Default 5.
+    // CG iterations per step: the budget (≥ 1). Default 5. A step runs more,
+    // up to 2 cg_iterations + 16 and a Galerkin step, only where stopping
+    // there would add energy to the body.
     uint32_t cg_iterations;
-    // Relative residual at which CG stops early (≥ 0; 0 = always run
-    // `cg_iterations`, a fixed cost per step). Default 0.
+    // Relative residual at which CG may stop early (≥ 0; 0 = no early
+    // stop). Default 0.
     float cg_tolerance;
     // Mass-proportional Rayleigh damping (1/s, ≥ 0). Default 0.
     float rayleigh_mass;

@@ -63,10 +63,12 @@ pub struct Settings {
     pub method: u32,
     /// Time step (s, > 0). Default 0.001.
     pub dt: f32,
-    /// Most CG iterations per step (≥ 1). Default 5.
+    /// CG iterations per step: the budget (≥ 1). Default 5. A step runs more,
+    /// up to 2 cg_iterations + 16 and a Galerkin step, only where stopping
+    /// there would add energy to the body.
     pub cg_iterations: u32,
-    /// Relative residual at which CG stops early (≥ 0; 0 = always run
-    /// `cg_iterations`, a fixed cost per step). Default 0.
+    /// Relative residual at which CG may stop early (≥ 0; 0 = no early
+    /// stop). Default 0.
     pub cg_tolerance: f32,
     /// Mass-proportional Rayleigh damping (1/s, ≥ 0). Default 0.
     pub rayleigh_mass: f32,
