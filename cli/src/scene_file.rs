@@ -313,7 +313,14 @@ fn toml_error(file: &str, text: &str, e: &toml::de::Error) -> CliError {
     let line_start = before.rfind('\n').map_or(0, |i| i + 1);
     let col = before[line_start..].chars().count() + 1;
     let line_text = text[line_start..].lines().next().unwrap_or("");
-    let section = enclosing_section(&text[..line_start]);
+    // An error on a table header (an unknown table) is the top level's, not
+    // the table's above it.
+    let header = line_text.trim_start().starts_with('[');
+    let section = if header {
+        Some("(top level)".to_owned())
+    } else {
+        enclosing_section(&text[..line_start])
+    };
     let section = section.map(|s| format!("{s} ")).unwrap_or_default();
     CliError(format!(
         "{file}:{line}:{col}: {section}{message}\n  {line} | {line_text}"
@@ -982,6 +989,16 @@ mod tests {
         let e = parse_str("[solver]\nsteps = 3\nstepz = 4\n").unwrap_err().0;
         assert!(e.contains("stepz"), "{e}");
         assert!(e.starts_with("t.toml:7:1: [solver]"), "{e}");
+    }
+
+    #[test]
+    fn unknown_table_is_named_at_the_top_level() {
+        let e = parse_str("[solver]\nsteps = 3\n[[probe]]\nradius = 0.01\n")
+            .unwrap_err()
+            .0;
+        assert!(e.contains("probe"), "{e}");
+        assert!(e.contains(": (top level) "), "{e}");
+        assert!(!e.contains("[solver]"), "{e}");
     }
 
     #[test]
