@@ -244,16 +244,15 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
     }
     // Otherwise, with a guess, the solve starts with r = b − A x₀.
     let from_guess = guess && !uniform;
-    // The operator and the filter go to the solve as arguments marked, on x86,
-    // `#[inline(always)]`: inlined at both of their calls, so that a host that
-    // compiles the step for another instruction set (a `#[target_feature]`
-    // caller) gets them compiled for it too; a closure left out of line would
-    // stay at the baseline. Elsewhere one out-of-line copy saves flash.
-    // The operator and the filter are `Copy` closures (they capture shared
-    // references only), passed by value wherever they go: a reference to a
-    // closure would call it through a forwarding function that is not
-    // compiled for the caller's instruction set (measured 8× slower with
-    // AVX2), where the closure passed by value is inlined into its caller.
+    // The operator and the filter are closures marked, on x86,
+    // `#[inline(always)]`, so that a host that compiles the step for another
+    // instruction set (a `#[target_feature]` caller) gets them compiled for
+    // it too; a closure left out of line would stay at the baseline.
+    // Elsewhere one out-of-line copy saves flash. They are `Copy` (shared
+    // references only) and passed by value wherever they go: called through
+    // a reference, a closure runs inside the standard library's forwarding
+    // function, which is compiled at the baseline, and every AVX2 intrinsic
+    // inlined into it becomes a call.
     let nodes_ro: &[Node] = nodes;
     let elems_ro: &[crate::element::ElementBlock] = elems;
     let project = {
