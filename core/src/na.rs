@@ -24,7 +24,9 @@
 
 use nalgebra::{Point3, Vector3};
 
-use crate::error::{Error, StepError};
+use crate::error::Error;
+#[cfg(feature = "tool")]
+use crate::error::StepError;
 use crate::material::Material;
 use crate::scene::{BuildOptions, Scene};
 use crate::settings::StepStats;
