@@ -193,9 +193,13 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
     // bit for bit in every method, and, for `Qr`, whose `B` is that of the
     // current shape, rotations about the current shape too. The solve keeps
     // the exact step's response to these modes (the momentum), whatever the
-    // preconditioner and however it is truncated.
-    let rigid = if isolated {
-        Rigid::new(nodes, s.method == crate::Method::Qr)
+    // preconditioner and however it is truncated: the mass preconditioner
+    // does by itself; the others are made exact on them (`Rigid::finish`),
+    // and only they need the body's inertia at every step.
+    let rotations = s.method == crate::Method::Qr;
+    #[cfg(feature = "two-level")]
+    let rigid = if isolated && kind != Preconditioner::Mass {
+        Rigid::new(nodes, rotations)
     } else {
         None
     };
@@ -325,7 +329,7 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
         return Err(StepError::Diverged);
     }
     if !outcome.certified {
-        galerkin(nodes, work, rigid, project, apply);
+        galerkin(nodes, work, isolated, rotations, project, apply);
     }
 
     // Check, then apply. The new displacement and velocity (after the ground
@@ -545,7 +549,6 @@ impl Rigid {
 /// no work on a node it holds still); fixed nodes do not move.
 /// `ε = f32::EPSILON`: the kinetic energy `KE`, a sum of f32 terms, is not
 /// known more finely, so a finer test would reject round-off.
-///
 #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
 fn certified(
     nodes: &[Node],
@@ -586,10 +589,16 @@ fn certified(
 fn galerkin(
     nodes: &[Node],
     work: &mut [NodeWork],
-    rigid: Option<Rigid>,
+    isolated: bool,
+    rotations: bool,
     project: impl Fn(usize, Vec3) -> Vec3,
     mut apply: impl FnMut(&mut [NodeWork]) -> f32,
 ) {
+    let rigid = if isolated {
+        Rigid::new(nodes, rotations)
+    } else {
+        None
+    };
     let none = ([0.0; 3], [0.0; 3]);
     let (fit_x, fit_v) = match rigid {
         Some(body) => (
