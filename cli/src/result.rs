@@ -45,11 +45,29 @@ pub struct MeshCounts {
     pub tets: usize,
 }
 
-/// `static` key: outcome of a static solve.
+/// `static` key: outcome of a static solve, with each stopping rule's value
+/// at the last Newton iteration.
 #[derive(Debug, Clone, Copy, Serialize)]
 pub struct StaticOutcome {
-    /// The last Newton iteration met the force or update tolerance.
+    /// A stopping rule was met: `"force"` or `"update"` says which.
     pub converged: bool,
+    /// `"force"`: `residual ≤ tolerance`. `"update"`: `update ≤
+    /// update_tolerance` and `cg_residual ≤ cg_tolerance`. `null`: neither.
+    pub met: Option<&'static str>,
+    /// Out-of-balance force over the load, before the last update.
+    pub residual: f32,
+    /// What `residual` is held to (`[solver] newton_tolerance`).
+    pub tolerance: f32,
+    /// RMS of the last update over the RMS displacement (0 when no update
+    /// was made).
+    pub update: f32,
+    /// What `update` is held to.
+    pub update_tolerance: f32,
+    /// Relative residual of the last CG solve (0 when none ran).
+    pub cg_residual: f32,
+    /// What `cg_residual` must reach for the update rule to count
+    /// (`[solver] cg_tolerance`).
+    pub cg_tolerance: f32,
 }
 
 /// `timing` key.

@@ -77,9 +77,7 @@ pub fn run(opts: &RunOptions) -> CliResult<()> {
         },
         method: spec.settings.method.name(),
         steps: outcome.steps,
-        static_solve: outcome
-            .converged
-            .map(|converged| StaticOutcome { converged }),
+        static_solve: outcome.static_solve,
         timing: outcome.timing,
         final_state,
         history: outcome.history,
@@ -126,7 +124,7 @@ fn static_notes(spec: &SceneSpec, notes: &mut Vec<String>) {
 /// What the run loop produced.
 struct Outcome {
     steps: u64,
-    converged: Option<bool>,
+    static_solve: Option<StaticOutcome>,
     timing: Timing,
     history: Vec<HistoryEntry>,
     extremes: Extremes,
@@ -326,7 +324,7 @@ impl<'a> Sim<'a> {
         progress.finish();
         Ok(Outcome {
             steps,
-            converged: None,
+            static_solve: None,
             timing: Timing::from_samples(ms, loop_start.elapsed().as_secs_f64()),
             history,
             extremes,
@@ -350,7 +348,7 @@ impl<'a> Sim<'a> {
         let mut history = Vec::new();
         let mut ms = Vec::new();
         let mut extremes = Extremes::default();
-        let mut converged = false;
+        let mut last = None;
         let mut progress = Progress::new(u64::from(st.max_iterations), "Newton iterations", quiet);
         let loop_start = Instant::now();
         for it in 1..=u64::from(st.max_iterations) {
@@ -380,21 +378,48 @@ impl<'a> Sim<'a> {
             extremes.tool_force = extremes.tool_force.max(norm(entry.tool_force));
             self.push(&mut history, entry, vtk.as_deref_mut())?;
             progress.set(it);
+            last = Some(newton);
             if newton.converged {
-                converged = true;
                 break;
             }
         }
+        let set = &st.settings;
+        let outcome = last.map(|n| StaticOutcome {
+            converged: n.converged,
+            met: if !n.converged {
+                None
+            } else if n.residual <= set.tolerance {
+                Some("force")
+            } else {
+                Some("update")
+            },
+            residual: n.residual,
+            tolerance: set.tolerance,
+            update: n.update,
+            update_tolerance: set.update_tolerance,
+            cg_residual: n.cg_residual,
+            cg_tolerance: set.cg_tolerance,
+        });
         progress.finish();
-        if !converged && !quiet {
+        if let Some(o) = outcome.filter(|o| !o.converged && !quiet) {
             eprintln!(
-                "warning: {file}: the static solve did not converge in {} Newton iterations (raise [solver] newton_iterations, or cg_iterations if set low)",
-                st.max_iterations
+                "warning: {file}: the static solve did NOT converge in {} Newton iterations: \
+                 out-of-balance force {:.3e} of the load (newton_tolerance {:.1e}); \
+                 last update {:.3e} of the displacement (needs <= {:.1e}) from a CG solve \
+                 that reached {:.3e} (needs <= cg_tolerance {:.1e}). Raise [solver] \
+                 newton_iterations, or cg_iterations if the CG solves stop short",
+                st.max_iterations,
+                o.residual,
+                o.tolerance,
+                o.update,
+                o.update_tolerance,
+                o.cg_residual,
+                o.cg_tolerance,
             );
         }
         Ok(Outcome {
             steps: history.len() as u64,
-            converged: Some(converged),
+            static_solve: outcome,
             timing: Timing::from_samples(ms, loop_start.elapsed().as_secs_f64()),
             history,
             extremes,
@@ -566,10 +591,17 @@ fn summary(
         Some(s) => format!(
             "static solve: {} Newton iterations, {}",
             r.steps,
-            if s.converged {
-                "converged"
-            } else {
-                "NOT converged"
+            match s.met {
+                Some("force") => format!(
+                    "converged (out-of-balance force {:.1e} of the load)",
+                    s.residual
+                ),
+                Some(_) => format!(
+                    "converged (update {:.1e} of the displacement, CG solved to {:.1e}; \
+                     out-of-balance force {:.1e} of the load)",
+                    s.update, s.cg_residual, s.residual
+                ),
+                None => "NOT converged".to_owned(),
             }
         ),
         None => format!("{} steps of {} s", r.steps, spec.dt),

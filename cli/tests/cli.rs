@@ -258,6 +258,17 @@ fn static_history_has_one_record_per_newton_iteration() {
     assert!(!history.is_empty());
     assert_eq!(r["steps"].as_u64().unwrap() as usize, history.len());
     assert_eq!(r["static"]["converged"], true);
+    // Each stopping rule's value, and the one that was met.
+    let st = &r["static"];
+    let num = |k: &str| st[k].as_f64().unwrap_or_else(|| panic!("static.{k}: {st}"));
+    match st["met"].as_str() {
+        Some("force") => assert!(num("residual") <= num("tolerance"), "{st}"),
+        Some("update") => {
+            assert!(num("update") <= num("update_tolerance"), "{st}");
+            assert!(num("cg_residual") <= num("cg_tolerance"), "{st}");
+        }
+        other => panic!("static.met {other:?}: {st}"),
+    }
     for (i, h) in history.iter().enumerate() {
         assert_eq!(h["step"].as_u64().unwrap() as usize, i + 1);
         assert_eq!(h["kinetic_energy"], 0.0);
@@ -271,6 +282,35 @@ fn static_history_has_one_record_per_newton_iteration() {
     // It sagged.
     let tip = vec3(&r["final"]["positions"][5]);
     assert!(tip[2] < -1.0e-3, "tip {tip:?}");
+}
+
+#[test]
+fn a_static_solve_that_stops_short_says_so() {
+    // Two CG iterations per Newton iteration: the updates are small, but
+    // not from solved systems.
+    let dir = TempDir::new("static-short");
+    dir.write(
+        "scene.toml",
+        &format!(
+            "{BEAM}[solver]\nstatic = true\ncg_iterations = 2\nnewton_iterations = 3\n[[fixed]]\nbox = {{ min = [-1.0, -1.0, -1.0], max = [1.0e-6, 1.0, 1.0] }}\n"
+        ),
+    );
+    let o = corofem(&["run", "scene.toml", "--out", "result.json"], &dir.0);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let said = format!("{}{}", String::from_utf8_lossy(&o.stdout), stderr(&o));
+    assert!(
+        said.contains("did NOT converge in 3 Newton iterations"),
+        "{said}"
+    );
+    assert!(
+        said.contains("static solve: 3 Newton iterations, NOT converged"),
+        "{said}"
+    );
+    let r: Value =
+        serde_json::from_str(&fs::read_to_string(dir.path("result.json")).unwrap()).unwrap();
+    assert_eq!(r["static"]["converged"], false);
+    assert!(r["static"]["met"].is_null());
+    assert_eq!(r["steps"], 3);
 }
 
 #[test]

@@ -248,7 +248,7 @@ fn sym_inverse(s: &[f32; 6]) -> Option<[f32; 6]> {
 /// `A = mass_coef M + k_coef K` plus `extra(node)` on the diagonal (the tool's
 /// spring); zero on fixed nodes. A block that cannot be inverted (not
 /// reachable with a validated scene) falls back to the inverse of its
-/// diagonal's mass part.
+/// diagonal's mass part, or zero without one (a static solve's `A = K`).
 #[allow(clippy::too_many_arguments)] // the step's state, passed apart so that each borrow stays narrow
 pub(crate) fn node_blocks(
     per_young: [f32; 2],
@@ -288,7 +288,8 @@ pub(crate) fn node_blocks(
         s[0] += p;
         s[1] += p;
         s[2] += p;
-        b.inv = sym_inverse(&s).unwrap_or([1.0 / p, 1.0 / p, 1.0 / p, 0.0, 0.0, 0.0]);
+        let fallback = if p > 0.0 { 1.0 / p } else { 0.0 };
+        b.inv = sym_inverse(&s).unwrap_or([fallback, fallback, fallback, 0.0, 0.0, 0.0]);
     }
 }
 

@@ -3,10 +3,21 @@
 //!
 //! The residual force is recomputed from the displacements at every Newton
 //! iteration, which acts as iterative refinement: f32 CG alone stagnates on
-//! stiff, slender bodies (DESIGN.md §4b), while "accurate residual → a few
-//! hundred CG iterations → update" converges. CG is preconditioned with the
-//! stiffness diagonal (Jacobi, one scalar per node). Fixed nodes and the tool
-//! spring hold the body; the ground plays no part in a static solve.
+//! stiff, slender bodies, while "accurate residual → CG to its tolerance →
+//! update" converges. CG is preconditioned with the two-level
+//! preconditioner of `K` (feature `two-level`, storage with room for it:
+//! node blocks plus rigid-body modes of node aggregates, factorised again
+//! at every Newton iteration), else with the stiffness diagonal (Jacobi,
+//! one scalar per node). Fixed nodes and the tool spring hold the body; the
+//! ground plays no part in a static solve.
+//!
+//! Stopping rules, checked after every Newton iteration:
+//! - the out-of-balance force is at most `tolerance` of the load; or
+//! - the update is at most `update_tolerance` of the displacement, and its
+//!   CG solve reached `cg_tolerance`. In f32 the out-of-balance force of a
+//!   stiff body has a round-off floor (see
+//!   [`StaticSettings::update_tolerance`]); the update of a solved Newton
+//!   system still goes to zero.
 
 use crate::cg;
 use crate::math::{add, dot, is_finite3, scale, sqrt};
@@ -36,7 +47,8 @@ pub struct StaticSettings {
     /// (external forces, gravity and tool). Default 1e-5.
     pub tolerance: f32,
     /// Also converged when a Newton update moves the body by less than this
-    /// fraction of its displacement (RMS over nodes). Default 1e-4.
+    /// fraction of its displacement (RMS over nodes) and its CG solve
+    /// reached `cg_tolerance`. Default 1e-4.
     ///
     /// Needed because in f32 the co-rotational forces of a stiff body carry a
     /// noise floor: the local displacement is a small difference of O(edge)
@@ -75,7 +87,9 @@ pub struct NewtonStats {
     pub update: f32,
     /// Inverted elements.
     pub inverted: u32,
-    /// `residual ≤ tolerance` or `update ≤ update_tolerance`.
+    /// `residual ≤ tolerance` (then no update is made), or
+    /// `update ≤ update_tolerance` with an inner solve that reached
+    /// `cg_tolerance`.
     pub converged: bool,
 }
 
@@ -122,6 +136,30 @@ impl<S: Storage> Scene<S> {
         let grabs = &*v.grabs;
         #[cfg(feature = "loads")]
         let loads = &*v.loads;
+        // The two-level preconditioner of `K`, where the build and the
+        // storage have it: aggregates of the free nodes now, the factor at
+        // every Newton iteration (the tangent turns with the body). The
+        // dynamic step's factor is of another matrix: it is prepared again.
+        #[cfg(feature = "two-level")]
+        let mut pre = {
+            let mut pre = v.pre;
+            v.hdr.invalidate_coarse();
+            let n = if pre.blocks.len() == nodes.len() {
+                crate::precond::aggregate(nodes, pre.blocks, pre.aggs)
+            } else {
+                0
+            };
+            let blocks = crate::precond::coarse_blocks_for(n);
+            (n > 0 && pre.coarse.len() >= blocks).then(|| {
+                pre.aggs = core::mem::take(&mut pre.aggs)
+                    .get_mut(..n)
+                    .unwrap_or_default();
+                pre.coarse = core::mem::take(&mut pre.coarse)
+                    .get_mut(..blocks)
+                    .unwrap_or_default();
+                pre
+            })
+        };
         let mut last = NewtonStats::default();
         for iteration in 0..cfg.max_iterations.max(1) {
             for w in work.iter_mut() {
@@ -191,6 +229,36 @@ impl<S: Storage> Scene<S> {
                 ..NewtonStats::default()
             };
             if !last.converged {
+                #[cfg(feature = "two-level")]
+                if let Some(pre) = pre.as_mut() {
+                    use crate::precond;
+                    precond::rotations(nodes, pre.blocks, pre.aggs);
+                    precond::node_blocks(
+                        per_young,
+                        elems,
+                        n_elems,
+                        nodes,
+                        pre.blocks,
+                        0.0,
+                        1.0,
+                        |_n| {
+                            #[cfg(feature = "tool")]
+                            if _n.flags & GRABBED != 0 && tool.active() {
+                                return tool.k_node;
+                            }
+                            0.0
+                        },
+                    );
+                    precond::factor(per_young, elems, n_elems, nodes, pre, 0.0, 1.0);
+                }
+                #[cfg(feature = "two-level")]
+                let whole = pre.as_mut().map(|pre| {
+                    |work: &mut [NodeWork]| {
+                        crate::precond::apply(nodes, work, pre, |_, r| r, |_, z| z)
+                    }
+                });
+                #[cfg(not(feature = "two-level"))]
+                let whole = None::<fn(&mut [NodeWork]) -> f32>;
                 let apply = |work: &mut [NodeWork]| {
                     pass::stiffness_outside_step(per_young, elems, n_elems, work);
                     let mut dq = 0.0f32;
@@ -215,7 +283,7 @@ impl<S: Storage> Scene<S> {
                     false,
                     false,
                     |_, z| z,
-                    None::<fn(&mut [NodeWork]) -> f32>,
+                    whole,
                     apply,
                     |_: &[NodeWork]| true,
                 );
@@ -239,7 +307,11 @@ impl<S: Storage> Scene<S> {
                     u2_wide += dot_wide(n.u, n.u);
                 }
                 last.update = norm_ratio(dx2, u2, dx2_wide, u2_wide);
-                last.converged = last.update <= cfg.update_tolerance;
+                // A small update says Newton has reached its fixed point
+                // only when the inner solve was solved: a stalled CG also
+                // moves the body little.
+                last.converged =
+                    last.update <= cfg.update_tolerance && out.residual <= cfg.cg_tolerance;
             }
             on_iteration(&last);
             if last.converged {

@@ -123,3 +123,66 @@ fn corotational_sag_matches_the_reference_fem_and_beam_theory() {
     );
     assert!(rel < 0.0 && rel > -0.06, "{rel}");
 }
+
+/// A clamped beam of `cells` boxes of 5 tets, 1 m × 0.2 m × 0.2 m, E = 1e7,
+/// sagging under gravity.
+fn clamped_beam(cells: [u32; 3]) -> (CoreMesh, corofem::Scene<corofem::VecStorage>) {
+    let mesh = corofem_host_tests::box_mesh([1.0, 0.2, 0.2], cells, 5);
+    let mut scene = mesh.scene(&Material {
+        young: 1.0e7,
+        poisson: 0.3,
+        density: 1000.0,
+    });
+    scene.fix_nodes(&mesh.select(|p| p[0] <= 1e-6)).unwrap();
+    scene
+        .set_settings(Settings {
+            gravity: [0.0, 0.0, -9.81],
+            ..Settings::default()
+        })
+        .unwrap();
+    (mesh, scene)
+}
+
+#[test]
+fn a_fine_beam_converges_with_the_default_static_settings() {
+    // 20,480 tets: a diagonal preconditioner needs more than the default
+    // 400 CG iterations per Newton iteration on this slender body; the
+    // two-level preconditioner (a default feature) needs a few dozen.
+    let (_, mut scene) = clamped_beam([64, 8, 8]);
+    let mut cg = Vec::new();
+    let last = scene
+        .solve_static(&StaticSettings::default(), |n| cg.push(n.cg_iterations))
+        .unwrap();
+    println!("{last:?}, CG iterations {cg:?}");
+    assert!(last.converged, "{last:?}");
+    assert!(cg.iter().all(|&c| c < 400), "{cg:?}");
+    // What `converged` promises: a small update from a solved system, or a
+    // balanced force.
+    let settings = StaticSettings::default();
+    assert!(
+        last.residual <= settings.tolerance
+            || (last.update <= settings.update_tolerance
+                && last.cg_residual <= settings.cg_tolerance),
+        "{last:?}"
+    );
+}
+
+#[test]
+fn a_static_solve_whose_cg_stops_short_does_not_converge() {
+    // Two CG iterations per Newton iteration move the body little at every
+    // iteration: small updates that do not come from a solved system.
+    let (_, mut scene) = clamped_beam([24, 4, 4]);
+    let settings = StaticSettings {
+        cg_iterations: 2,
+        ..StaticSettings::default()
+    };
+    let mut small_updates = 0;
+    let last = scene
+        .solve_static(&settings, |n| {
+            small_updates += u32::from(n.update <= settings.update_tolerance);
+        })
+        .unwrap();
+    println!("{last:?}, {small_updates} updates within the update tolerance");
+    assert!(!last.converged, "{last:?}");
+    assert!(last.cg_residual > settings.cg_tolerance, "{last:?}");
+}
