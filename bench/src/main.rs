@@ -780,7 +780,7 @@ fn method_report(
             marker: 0,
         });
     }
-    // Qr keeps the file names of the report before Polar was added.
+    // Qr's plots have no suffix: docs link to those names.
     let suffix = if method == Method::Qr { "" } else { "_polar" };
     loglog(
         &o.out.join(format!("pareto_solve_{}{suffix}.svg", d.name)),

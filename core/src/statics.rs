@@ -3,8 +3,9 @@
 //!
 //! The residual force is recomputed from the displacements at every Newton
 //! iteration, which acts as iterative refinement: f32 CG alone stagnates on
-//! stiff, slender bodies (DESIGN.md §4b), while "accurate residual → a few
-//! hundred CG iterations → update" converges. CG is preconditioned with the
+//! stiff, slender bodies, whose systems are too ill-conditioned for f32,
+//! while "accurate residual, then a few hundred CG iterations, then update"
+//! converges. CG is preconditioned with the
 //! stiffness diagonal (Jacobi, one scalar per node). Fixed nodes and the tool
 //! spring hold the body; the ground plays no part in a static solve.
 
