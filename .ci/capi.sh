@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# C API (issue 7): the generated header is up to date and compiles as C99 and
+# C API: the generated header is up to date and compiles as C99 and
 # C++; the Rust tests pass; the C example, linked against the staticlib,
 # gives the Rust API's state hash; the same example cross-compiled for a
 # Cortex-M4F gives it too in QEMU; a shortened 1 kHz real-time loop runs.

@@ -410,7 +410,8 @@ fn euler_bernoulli(d: &SceneDef) -> f64 {
 }
 
 fn main() -> Res<()> {
-    let Some(args) = corofem_bench::args::report_args("peers [--quick] [--out DIR]", &[])? else {
+    let Some(args) = corofem_bench::args::report_args("peers [--quick] [--out DIR]", &[], false)?
+    else {
         return Ok(());
     };
     let (quick, out) = (args.quick, args.out);

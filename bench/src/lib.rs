@@ -1,8 +1,9 @@
 //! Measurement side of corofem: the f64 reference integrator, the benchmark
 //! scenes and the error metrics. The `corofem-bench` binary writes the report
-//! (docs/bench.md).
+//! and, with `--page docs/bench.md`, the figures section of that page.
 
 pub mod args;
+pub mod page;
 pub mod reference;
 pub mod scenes;
 

@@ -1,6 +1,7 @@
 //! The f64 reference integrator: exactly the core's discretisation and
-//! scheme (DESIGN.md §2–§4), with every implicit step's linear system solved
-//! to a relative residual of 1e-12.
+//! scheme (co-rotational linear tetrahedra after Nesme, Payan and Faure 2005,
+//! linearised implicit Euler; docs/bench.md, "What is measured"), with every
+//! implicit step's linear system solved to a relative residual of 1e-12.
 //!
 //! * [`RefMethod::Qr`]: QR frame of the current edges, `B` from the current
 //!   shape, scaled by the rest volume: `λ' = λ/(36 V₀)`, `μ' = μ/(36 V₀)`,
@@ -377,7 +378,8 @@ impl<T: Float> Model<T> {
                     let (fr, l) = frame(edge(1), edge(2), edge(3));
                     let l0 = self.rest[e];
                     let [xb, xc, yc, xd, yd, zd] = l;
-                    // Local gradients ×6V of b, c, d (DESIGN.md §2).
+                    // Local gradients ×6V of b, c, d (the corrected table
+                    // of corofem's element/qr.rs).
                     let g = [
                         [yc * zd, -(xc * zd), xc * yd - yc * xd],
                         [z, xb * zd, -(xb * yd)],

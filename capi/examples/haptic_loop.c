@@ -18,9 +18,12 @@
  * --rt paces the loop at 1 kHz with absolute deadlines (POSIX hosts) and
  * reports deadline misses; without it the loop runs flat out.
  *
- * Build (host, from capi/, after `cargo build --release --lib`):
- *   cc -std=c11 -O2 -ffp-contract=off -Iinclude examples/haptic_loop.c \
- *      ../target/release/libcorofem_capi.a -lgcc_s -lutil -lrt -lpthread -lm -ldl -lc
+ * Build (host, at the repository root; capi is a member of the root
+ * workspace, so the library lands in the root's target/, or in
+ * $CARGO_TARGET_DIR when that is set):
+ *   cargo build --release -p corofem-capi
+ *   cc -std=c11 -O2 -ffp-contract=off -Icapi/include capi/examples/haptic_loop.c \
+ *      target/release/libcorofem_capi.a -lgcc_s -lutil -lrt -lpthread -lm -ldl -lc
  * Cortex-M4F: see .ci/capi.sh (-DCOROFEM_BARE_METAL, cortex-m4f/startup.c
  * and link.ld). -ffp-contract=off: the tool path must round exactly as in
  * Rust (no fused multiply-add, which the M4F has), or the hashes differ.

@@ -3,8 +3,9 @@
 //! clamped at x = 0 under gravity: the scene of the benchmark report's
 //! "Instruction sets" section, but built with only the core's default
 //! features (`libm`, `qr`), as a scene that uses `Qr` alone would be. The
-//! report's binary carries every method and model (`full`), which measured
-//! 4–6 % slower on this scene (docs/bench.md).
+//! report's binary carries every method and model (`full`), a few percent
+//! slower on this scene (the node loops check for the ground, the tool and
+//! loads; the step dispatches over four methods).
 //!
 //! ```sh
 //! cargo run --release -p corofem --features std --example cube_timing

@@ -50,9 +50,9 @@ pub(crate) fn sqrt(x: f32) -> f32 {
 /// `libm`, on x86 and x86_64). `libm::sqrtf` emits the same instruction, but
 /// from inline assembly: the compiler can neither turn it into `sqrtps` across
 /// the lanes of a batch nor give it the VEX encoding, and a legacy-SSE
-/// instruction among AVX code costs a state transition each time (measured
-/// here: a 10k-tet step 3.4× slower when built for AVX-512). IEEE 754 square
-/// roots are correctly rounded, so the bits are libm's.
+/// instruction among AVX code costs an SSE/AVX state transition each time it
+/// runs (a step built for AVX-512 becomes several times slower). IEEE 754
+/// square roots are correctly rounded, so the bits are libm's.
 #[cfg(all(
     feature = "libm",
     any(target_arch = "x86", target_arch = "x86_64"),

@@ -282,9 +282,9 @@ struct ForcePass<'a, B, S> {
 trait LaneKernel {
     /// The method the kernel computes: a lane it marks irregular is redone
     /// by this method's one-element kernel alone. (With the block's runtime
-    /// method instead, every batched pass carried all four one-element
-    /// kernels, and the build with every method took LLVM over ten minutes
-    /// on a 2.4 GHz core.)
+    /// method instead, every batched pass would carry all four one-element
+    /// kernels, and LLVM's loop passes, superlinear in the number of loops
+    /// of a function, would make the build with every method very slow.)
     const METHOD: Method;
     /// Whether the kernel updates the elements' rotations (`Polar`).
     #[cfg(feature = "polar")]
@@ -435,10 +435,9 @@ impl<B: Backend, S: Sink> ForcePass<'_, B, S> {
 
     /// [`Self::batched`] out of line, one function per kernel and
     /// instruction set ([`Backend::call`]). Inlining every method's batched
-    /// pass into the step made one function so large that LLVM's loop
-    /// passes took minutes over it (over eight with every feature, on a
-    /// 2.4 GHz core); one call per block of eight elements costs nothing
-    /// measurable.
+    /// pass into the step would make one function so large that LLVM's loop
+    /// passes take minutes over it; one call per block of eight elements
+    /// costs nothing measurable.
     #[inline(always)]
     fn lanes<K: LaneKernel, const WITH_KV: bool, const COMMIT: bool>(
         &mut self,
@@ -752,9 +751,9 @@ use crate::fpu_product::product as product_one_by_one;
 /// checked once, together; the indexing after the check compiles to no
 /// check at all (the firmware's link-time proof fails if one remains). A
 /// specialised copy of the product because it pays: [`product_block`] over
-/// the portable backend with one lane measured 45 instructions more per
-/// tetrahedron and CG iteration on a Cortex-M4F (QEMU, the firmware built
-/// without `fpu-product`: 1,801 instead of 1,576 per tetrahedron-step).
+/// the portable backend with one lane costs about 45 instructions more per
+/// tetrahedron and CG iteration on a Cortex-M4F, in lane bookkeeping this
+/// loop does not need (QEMU, the firmware built without `fpu-product`).
 ///
 /// With feature `fpu-product` on bare-metal Arm hard-float targets,
 /// `crate::fpu_product::product` takes its place (the same operations in

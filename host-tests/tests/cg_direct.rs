@@ -18,7 +18,8 @@ fn unit(a: V) -> V {
     [a[0] / n, a[1] / n, a[2] / n]
 }
 
-/// QR frame rows and local coordinates [xb, xc, yc, xd, yd, zd] (DESIGN.md §2).
+/// QR frame rows and local coordinates [xb, xc, yc, xd, yd, zd]: `e1` along
+/// `ab`, `e2` in the plane of `ab` and `ac`, `e3 = e1 × e2` (Nesme et al. 2005).
 fn frame(ab: V, ac: V, ad: V) -> ([V; 3], [f64; 6]) {
     let e1 = unit(ab);
     let e3 = unit(f64v::cross(e1, ac));

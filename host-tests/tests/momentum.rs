@@ -1,6 +1,7 @@
 //! Linear and angular momentum of an isolated, spinning, deforming body are
-//! conserved to round-off at any CG budget (mass-preconditioned CG, DESIGN.md
-//! §4) — and visibly not with `QrRestB`.
+//! conserved to round-off at any CG budget (every preconditioner keeps the
+//! rigid-body modes exact, so no CG iterate adds a net force or torque) —
+//! and visibly not with `QrRestB`.
 
 use corofem::{Material, Method, Preconditioner, Settings};
 use corofem_host_tests::{f64v, shared_mesh, CoreMesh, Rng};

@@ -329,10 +329,9 @@ pub enum InstructionSet {
     /// elsewhere what the target enables (with `simd128` on wasm32, NEON on
     /// AArch64), through the compiler's vectoriser.
     Baseline,
-    /// AVX2, on x86_64 CPUs that have it: about a quarter less time per
-    /// step than SSE2 (the 10k-tet cube on a Zen 5: 0.41–0.43 ms against
-    /// 0.54 ms, `cargo run --release -p corofem --features std --example
-    /// cube_timing`).
+    /// AVX2, on x86_64 CPUs that have it: the same bits as SSE2 in less time
+    /// per step (`cargo run --release -p corofem --features std --example
+    /// cube_timing` times both on the 10k-tet cube).
     Avx2,
 }
 

@@ -5,8 +5,7 @@
 //! Its stiffness product runs half a block at a time ([`Backend::Chunk`] of
 //! four lanes), the gradients read from memory at each use: each half's
 //! values then nearly fit the 16 `xmm` registers, where the whole block's,
-//! two registers per value, spilled (docs/bench.md measures the step both
-//! ways).
+//! two registers per value, would spill.
 
 #![allow(unsafe_code)] // intrinsics, `asm!` and layout casts; SSE2 is part of x86_64
 

@@ -6,9 +6,9 @@
 //! one value per lane side by side (a structure of arrays in blocks), so a
 //! batched pass loads a field of a whole block as one vector: the stiffness
 //! product, run once per CG iteration, reads its gradients and stiffnesses
-//! without moving them between elements and lanes. Measured on the 10k-tet
-//! cube (docs/bench.md): array-of-structs elements, batched or not, cost
-//! about what the lanes saved.
+//! without moving them between elements and lanes. With array-of-structs
+//! elements, moving each element's gradients into lanes costs about what the
+//! lanes save.
 //!
 //! With one lane (targets without vector registers, such as a Cortex-M4F) a
 //! block holds one element, with no padding between lanes.
@@ -180,12 +180,12 @@ const RUN: usize = 64;
 /// cells), so elements 64 apart rarely share a node, and the scatter of a
 /// block's results into its nodes rarely adds into a node one lane after
 /// another did: such a chain of adds waits on the store before it each time.
-/// Node indices repeated within a block, per element: 2.67 → 0.12 on the
-/// 10k-tet cube, 0.95–1.11 → 0.09–0.22 on the fTetWild meshes, 1.03 → 0.36
-/// on SOFA's liver (docs/bench.md has the times). Runs of 64 rather than
-/// `count / 8` keep a block's nodes within a few hundred elements, where the
-/// caches still hold them, and cannot fall in step with a mesh's period (a
-/// 15 360-tet beam's lanes `count / 8` apart shared 0.88 nodes per element).
+/// (A box's cell lists its six tetrahedra one after the other, all sharing
+/// the cell's diagonal: in input order a block of them would add into that
+/// node six times in a row.) Runs of 64 rather than `count / 8` keep a
+/// block's nodes within a few hundred elements, where the caches still hold
+/// them, and cannot fall in step with a mesh's period (on a regular beam,
+/// lanes `count / 8` apart can land on the same nodes).
 ///
 /// A bijection of `0..count` (slots of `e ≥ count` are `e`).
 #[must_use]

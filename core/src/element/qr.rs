@@ -104,8 +104,10 @@ fn any_perpendicular(e: Vec3) -> Vec3 {
 /// Shape-function gradients of `b, c, d` in the local frame, scaled by `6V`:
 /// `[[βb, γb, δb], [βc, γc, δc], [βd, γd, δd]]` (m²).
 ///
-/// The corrected table of DESIGN.md §2 (the paper prints `γb`, `δb`, `δd` with
-/// the wrong sign). Seven products; `βc = βd = γd = 0` by construction and node
+/// The table of Nesme, Payan and Faure (2005), corrected: the paper prints
+/// `γb`, `δb`, `δd` with the wrong sign (the formulas below are the right
+/// ones; `host-tests/tests/cg_direct.rs` checks them against an independent
+/// assembly). Seven products; `βc = βd = γd = 0` by construction and node
 /// `a` is minus the sum of the others (partition of unity):
 ///
 /// ```text
