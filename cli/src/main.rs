@@ -68,14 +68,17 @@ docs/scene-format.md. Among the scene keys:
                                     of the system matrix) or \"two-level\" (node blocks plus
                                     rigid-body modes of node aggregates, turned with the body)
   [solver] newton_iterations = 30   static solve: most Newton iterations
-  [solver] newton_tolerance = 1e-5  static solve: out-of-balance force / load to stop at
+  [solver] newton_tolerance = 1e-5  static solve: out-of-balance force / load to stop at; it
+                                    also stops when an update moves the body by at most 1e-4
+                                    of its displacement and its CG solve reached cg_tolerance
 Defaults: [material] young 1e6, poisson 0.3, density 1000; [solver] method \"qr\",
 dt 0.001, cg_iterations 5 (400 for a static solve), cg_tolerance 0 (1e-4 static),
 no damping; [world] gravity [0, 0, -9.81]; [output] every 10; [tool] path [[0, 0, 0, 0]].
 
-Result of a static solve: \"steps\" counts Newton iterations, \"static\": {\"converged\": bool},
-and each history record adds \"newton_residual\" and \"newton_update\"; its \"step\" is
-the iteration count, \"t\" is 0. timing.total_s is the wall time of the stepping loop
+Result of a static solve: \"steps\" counts Newton iterations, \"static\" gives
+\"converged\", the rule met (\"met\": \"force\", \"update\" or null) and each rule's value
+against its tolerance; each history record adds \"newton_residual\" and \"newton_update\",
+its \"step\" is the iteration count, \"t\" is 0. timing.total_s is the wall time of the stepping loop
 including diagnostics and VTK output.
 
 The result file is written whole at the end (temporary file + rename): a failed run
