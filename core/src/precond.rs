@@ -184,6 +184,27 @@ pub(crate) struct Parts<'a> {
     pub(crate) coarse: &'a mut [CoarseBlock],
 }
 
+impl Parts<'_> {
+    /// Narrows `aggs` and `coarse` to the first `n` aggregates and their
+    /// factor's blocks; returns `n`, or 0 (and empty slices: block-Jacobi)
+    /// when the storage has not that many.
+    pub(crate) fn keep(&mut self, n: usize) -> usize {
+        let blocks = coarse_blocks_for(n);
+        let n = if n <= self.aggs.len() && blocks <= self.coarse.len() {
+            n
+        } else {
+            0
+        };
+        self.aggs = core::mem::take(&mut self.aggs)
+            .get_mut(..n)
+            .unwrap_or_default();
+        self.coarse = core::mem::take(&mut self.coarse)
+            .get_mut(..coarse_blocks_for(n))
+            .unwrap_or_default();
+        n
+    }
+}
+
 /// `[p]×`, the matrix of `v ↦ p × v`.
 fn skew(p: Vec3) -> Mat3 {
     [[0.0, -p[2], p[1]], [p[2], 0.0, -p[0]], [-p[1], p[0], 0.0]]

@@ -149,16 +149,7 @@ impl<S: Storage> Scene<S> {
             } else {
                 0
             };
-            let blocks = crate::precond::coarse_blocks_for(n);
-            (n > 0 && pre.coarse.len() >= blocks).then(|| {
-                pre.aggs = core::mem::take(&mut pre.aggs)
-                    .get_mut(..n)
-                    .unwrap_or_default();
-                pre.coarse = core::mem::take(&mut pre.coarse)
-                    .get_mut(..blocks)
-                    .unwrap_or_default();
-                pre
-            })
+            (pre.keep(n) > 0).then_some(pre)
         };
         let mut last = NewtonStats::default();
         for iteration in 0..cfg.max_iterations.max(1) {

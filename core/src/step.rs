@@ -697,13 +697,7 @@ fn prepare(
     }
     // The aggregates in use (none for block-Jacobi): what `precond::apply`
     // works with.
-    let n = if two_level { hdr.n_aggs } else { 0 };
-    pre.aggs = core::mem::take(&mut pre.aggs)
-        .get_mut(..n)
-        .unwrap_or_default();
-    pre.coarse = core::mem::take(&mut pre.coarse)
-        .get_mut(..precond::coarse_blocks_for(n))
-        .unwrap_or_default();
+    let n = pre.keep(if two_level { hdr.n_aggs } else { 0 });
     if n > 0 {
         precond::rotations(nodes, pre.blocks, pre.aggs);
     } else {
