@@ -291,7 +291,7 @@ fn a_static_solve_that_stops_short_says_so() {
     let dir = TempDir::new("static-short");
     dir.write(
         "scene.toml",
-        &format!(
+        format!(
             "{BEAM}[solver]\nstatic = true\ncg_iterations = 2\nnewton_iterations = 3\n[[fixed]]\nbox = {{ min = [-1.0, -1.0, -1.0], max = [1.0e-6, 1.0, 1.0] }}\n"
         ),
     );
