@@ -585,6 +585,7 @@ fn settled(def: &SceneDef, method: Method, increments: u32) -> Settled {
         cg_tolerance: 1e-6,
         tolerance: 1e-6,
         update_tolerance: 1e-6,
+        ..StaticSettings::default()
     };
     for k in 1..=increments {
         let mut s = *sc.settings();

@@ -57,6 +57,11 @@ pub struct StaticSettings {
     /// while the updates stall at 2–3e-5 of the displacement (measured with
     /// `cargo test -p corofem-host-tests --test statics -- --nocapture`).
     pub update_tolerance: f32,
+    /// Precondition CG with the two-level preconditioner of `K` (node
+    /// blocks plus rigid-body modes of node aggregates) where the build has
+    /// the feature `two-level` and the storage room for it; otherwise, and
+    /// with `false`, with the stiffness diagonal. Default `true`.
+    pub two_level: bool,
 }
 
 impl Default for StaticSettings {
@@ -67,6 +72,7 @@ impl Default for StaticSettings {
             cg_tolerance: 1.0e-4,
             tolerance: 1.0e-5,
             update_tolerance: 1.0e-4,
+            two_level: true,
         }
     }
 }
@@ -143,8 +149,8 @@ impl<S: Storage> Scene<S> {
         #[cfg(feature = "two-level")]
         let mut pre = {
             let mut pre = v.pre;
-            v.hdr.invalidate_coarse();
-            let n = if pre.blocks.len() == nodes.len() {
+            let n = if cfg.two_level && pre.blocks.len() == nodes.len() {
+                v.hdr.invalidate_coarse();
                 crate::precond::aggregate(nodes, pre.blocks, pre.aggs)
             } else {
                 0
