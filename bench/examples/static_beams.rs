@@ -110,4 +110,3 @@ fn solve(cells: [u32; 3], two_level: bool) -> (usize, f64, u32, Vec<u32>, &'stat
     }
     (t, best, last.0, last.1, last.2)
 }
-
