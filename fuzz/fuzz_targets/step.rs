@@ -162,6 +162,7 @@ fn run(u: &mut Unstructured) -> Result<()> {
                     max_iterations: u.int_in_range(0u32..=3)?,
                     cg_iterations: u.int_in_range(0u32..=60)?,
                     cg_tolerance: common::any_f32(u)?.abs(),
+                    two_level: u.arbitrary()?,
                     ..StaticSettings::default()
                 };
                 match s.solve_static(&cfg, |st| {
