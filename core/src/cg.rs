@@ -4,10 +4,14 @@
 //! node (fixed nodes: all three; ground contacts: the normal). The operator is
 //! a closure that computes `q = A d` element by element; `A` is never stored.
 //!
-//! The preconditioner is a scalar per node (`inv_p`): the lumped mass for
-//! dynamics, which makes every iterate conserve linear and angular momentum
-//! of an isolated body (DESIGN.md §4), or the stiffness diagonal for statics.
-//! Fixed nodes have `inv_p = 0`, which filters them for free.
+//! The preconditioner is either a scalar per node (`inv_p`) or a closure
+//! (`whole`) that preconditions the whole residual at once (the
+//! `block-jacobi` and `two-level` preconditioners, `crate::precond`). The
+//! scalar is the lumped mass for dynamics, which makes every iterate
+//! conserve linear and angular momentum of an isolated body (the mass
+//! preconditioner maps a net force to the rigid motion it drives, and `K`
+//! annihilates rigid motions), or the stiffness diagonal for statics. Fixed
+//! nodes have `inv_p = 0`, which filters them for free.
 //!
 //! The residual `r` is kept *unfiltered*: the iterates are the same as with a
 //! filtered residual (every inner product goes through `z = S P⁻¹ r`), and
@@ -63,8 +67,8 @@ const FLOOR: f32 = f32::EPSILON * f32::EPSILON;
 /// Loops are fused where the order of operations allows it, so the result
 /// has the bits of the plain algorithm: `dᵀq` is summed inside `apply`'s
 /// node loop, and `q` is zeroed for the next product in the loop that updates
-/// `d`: two passes over the nodes fewer per iteration (on a Cortex-M4F, 1 746
-/// → 1 727 instructions per tetrahedron-step, docs/firmware.md).
+/// `d`: two passes over the nodes fewer per iteration, which a Cortex-M4F,
+/// with no cache to hide them, pays for in full.
 #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
 #[allow(clippy::too_many_arguments)] // the step's state, passed apart so that each borrow stays narrow
 pub(crate) fn solve(
