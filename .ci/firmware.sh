@@ -10,7 +10,8 @@
 #     the Rust stiffness product instead of the assembly one (fpu-product),
 #     with libm's software square root instead of vsqrt as well, and tuned
 #     for the Cortex-M4 with the assembly's VMUL+VADD form
-#     (_fpu-product-vmul): same hash;
+#     (_fpu-product-vmul), and with the core's features two-level and
+#     nalgebra compiled in but unused: same hash;
 #  4. the scene is a `static StaticScene`: an empty scene is all zero bits,
 #     so it must land in .bss. Every build's .data stays under 1 KiB
 #     (MAX_DATA), and the flash images (vectors, code, constants, .data's
@@ -198,6 +199,8 @@ run_firmware "$REFERENCE" libm --no-default-features
 step "firmware tuned for the Cortex-M4 (-C target-cpu=cortex-m4 and _fpu-product-vmul: VMUL+VADD instead of VMLA) ($REFERENCE)"
 FW_RUSTFLAGS="-C target-cpu=cortex-m4" FW_TARGET_DIR="$CARGO_TARGET_DIR/firmware-cortex-m4" \
   run_firmware "$REFERENCE" cortex-m4 --features _fpu-product-vmul
+step "firmware with the core's features two-level and nalgebra compiled in, unused ($REFERENCE): the two-level code links panic-free too"
+run_firmware "$REFERENCE" two-level-nalgebra --features corofem/two-level,corofem/nalgebra
 
 step "panic-freedom: negative control"
 if (cd "$FW" && cargo build --release --features panic-negative-control) >"$OUT/negative.txt" 2>&1; then

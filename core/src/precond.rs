@@ -555,7 +555,7 @@ pub(crate) fn aggregate(nodes: &[Node], blocks: &mut [NodeBlock], aggs: &mut [Ag
     }
     bisect(nodes, blocks.get_mut(..free).unwrap_or_default(), 0, count);
     // Back to node order: the order fields are a permutation.
-    blocks.sort_unstable_by_key(|b| b.order);
+    heap_sort(blocks, |a, b| a.order < b.order);
     let aggs = &mut aggs[..count];
     for a in aggs.iter_mut() {
         *a = Aggregate::EMPTY;
@@ -619,15 +619,76 @@ fn bisect(nodes: &[Node], slots: &mut [NodeBlock], first: usize, parts: usize) {
     };
     let left = parts / 2;
     let mid = slots.len() * left / parts;
-    let mid = mid.clamp(1, slots.len() - 1);
-    slots.select_nth_unstable_by(mid, |a, b| {
-        pos(a)[axis]
-            .total_cmp(&pos(b)[axis])
+    // In 1 ..= len − 1 (len ≥ 2 here), written out: `clamp` asserts its
+    // bounds, a panicking branch.
+    let last = slots.len().saturating_sub(1);
+    let mid = if mid < 1 {
+        1
+    } else if mid > last {
+        last
+    } else {
+        mid
+    };
+    // The `mid` first slots in the order of the axis (ties by node index: a
+    // total order, so the two sides are the same sets whatever the
+    // algorithm). A full sort where a selection would do: it runs once per
+    // preparation, and core's selection keeps panicking branches that a
+    // firmware build must not link.
+    let coord = |s: &NodeBlock| match (axis, pos(s)) {
+        (0, [x, _, _]) => x,
+        (1, [_, y, _]) => y,
+        (_, [_, _, z]) => z,
+    };
+    heap_sort(slots, |a, b| {
+        coord(a)
+            .total_cmp(&coord(b))
             .then(a.order.cmp(&b.order))
+            .is_lt()
     });
-    let (l, r) = slots.split_at_mut(mid);
+    let Some((l, r)) = slots.split_at_mut_checked(mid) else {
+        return;
+    };
     bisect(nodes, l, first, left);
     bisect(nodes, r, first + left, parts - left);
+}
+
+/// Sorts `s` by `less` (a strict order): heapsort, in place, `O(n log n)`,
+/// every index checked by the loop conditions, so that no panicking branch
+/// remains.
+fn heap_sort(s: &mut [NodeBlock], less: impl Fn(&NodeBlock, &NodeBlock) -> bool) {
+    // Moves `s[root]` down the heap of the first `end` slots.
+    let sift = |s: &mut [NodeBlock], mut root: usize, end: usize| {
+        let end = end.min(s.len());
+        loop {
+            let mut child = 2 * root + 1;
+            if child >= end {
+                break;
+            }
+            if let (Some(a), Some(b)) = (s.get(child), s.get(child + 1)) {
+                if child + 1 < end && less(a, b) {
+                    child += 1;
+                }
+            }
+            match (s.get(root), s.get(child)) {
+                (Some(r), Some(c)) if less(r, c) => {}
+                _ => break,
+            }
+            if root < s.len() && child < s.len() {
+                s.swap(root, child);
+            }
+            root = child;
+        }
+    };
+    let n = s.len();
+    for start in (0..n / 2).rev() {
+        sift(s, start, n);
+    }
+    for end in (1..n).rev() {
+        if end < s.len() {
+            s.swap(0, end);
+        }
+        sift(s, 0, end);
+    }
 }
 
 /// Prepares the two-level preconditioner at the current state: turns every

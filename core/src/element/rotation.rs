@@ -180,9 +180,12 @@ fn horn(f: &Mat3, prev: [f32; 4]) -> [f32; 4] {
         if !(off2 > f32::EPSILON * f32::EPSILON * scale2) {
             break;
         }
-        for (p, r) in [(0usize, 1usize), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)] {
-            jacobi_rotate(&mut a, &mut v, p, r);
-        }
+        jacobi_rotate::<0, 1>(&mut a, &mut v);
+        jacobi_rotate::<0, 2>(&mut a, &mut v);
+        jacobi_rotate::<0, 3>(&mut a, &mut v);
+        jacobi_rotate::<1, 2>(&mut a, &mut v);
+        jacobi_rotate::<1, 3>(&mut a, &mut v);
+        jacobi_rotate::<2, 3>(&mut a, &mut v);
     }
     let mut best = 0;
     for k in 1..4 {
@@ -202,9 +205,12 @@ fn horn(f: &Mat3, prev: [f32; 4]) -> [f32; 4] {
     [q[0] * inv, q[1] * inv, q[2] * inv, q[3] * inv]
 }
 
-/// One Jacobi rotation zeroing `a[p][r]` of the symmetric `a`; accumulates
-/// the rotation into the eigenvector columns of `v`.
-fn jacobi_rotate(a: &mut [[f32; 4]; 4], v: &mut [[f32; 4]; 4], p: usize, r: usize) {
+/// One Jacobi rotation zeroing `a[P][R]` of the symmetric `a`; accumulates
+/// the rotation into the eigenvector columns of `v`. The indices are
+/// constants so that every index is checked at compile time: a firmware
+/// build keeps no bounds check (no panicking branch) for them.
+fn jacobi_rotate<const P: usize, const R: usize>(a: &mut [[f32; 4]; 4], v: &mut [[f32; 4]; 4]) {
+    let (p, r) = (P, R);
     let apr = a[p][r];
     if apr == 0.0 {
         return;
