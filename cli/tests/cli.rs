@@ -303,9 +303,10 @@ fn a_static_solve_that_stops_short_says_so() {
         "{said}"
     );
     assert!(
-        said.contains("static solve: 3 Newton iterations, NOT converged"),
+        said.contains("\nstatic     3 Newton iterations, NOT converged\n"),
         "{said}"
     );
+    assert!(said.contains("\nwall time  "), "{said}");
     let r: Value =
         serde_json::from_str(&fs::read_to_string(dir.path("result.json")).unwrap()).unwrap();
     assert_eq!(r["static"]["converged"], false);
@@ -405,6 +406,77 @@ fn stdout_and_default_destinations() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(dir.path("beam.result.json").exists());
     assert!(stderr(&o).contains("3 steps"), "{}", stderr(&o));
+}
+
+/// The summary's lines on stderr, from its first label (`scene`) on.
+fn summary_lines(o: &Output) -> Vec<String> {
+    let e = stderr(o);
+    let lines: Vec<String> = e.lines().map(str::to_owned).collect();
+    let first = lines
+        .iter()
+        .position(|l| l.starts_with("scene      "))
+        .unwrap_or_else(|| panic!("no summary in:\n{e}"));
+    lines[first..].to_vec()
+}
+
+#[test]
+fn the_summary_is_an_aligned_block() {
+    let dir = TempDir::new("summary");
+    dir.write("scene.toml", format!("{BEAM}{DYNAMIC}"));
+    let o = corofem(
+        &["run", "scene.toml", "--out", "r.json", "--vtk", "frames"],
+        &dir.0,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let lines = summary_lines(&o);
+    let labels: Vec<&str> = lines.iter().map(|l| l[..11].trim_end()).collect();
+    assert_eq!(
+        labels,
+        ["scene", "ran", "final", "result", "vtk"],
+        "{lines:#?}"
+    );
+    for l in &lines {
+        assert!(l.len() < 130, "a long summary line: {l}");
+        // Values start in column 12, after the padded label.
+        assert_eq!(&l[10..11], " ", "{l}");
+        assert_ne!(&l[11..12], " ", "{l}");
+    }
+    assert!(
+        lines[0].starts_with("scene      scene.toml (qr, 24 nodes, 30 tets, box 5x1x1 cells"),
+        "{lines:#?}"
+    );
+    assert!(
+        lines[1].starts_with("ran        25 steps of 0.001 s in "),
+        "{lines:#?}"
+    );
+    assert!(lines[2].contains(" inverted (at most "), "{lines:#?}");
+    assert_eq!(lines[3], "result     r.json");
+    assert_eq!(lines[4], "vtk        4 frames in frames (open series.pvd)");
+    // No tool, no tool line (it used to say "max |tool force| 0.0000 N").
+    assert!(!stderr(&o).contains("tool"), "{}", stderr(&o));
+
+    // With a tool: its largest force; the result on standard output.
+    dir.write(
+        "tool.toml",
+        format!(
+            "{BEAM}[solver]\nsteps = 5\n[tool]\nnodes = [5]\nstiffness = 100.0\npath = [[0.0, 0, 0, 0], [0.005, 0, 0, 0.01]]\n"
+        ),
+    );
+    let o = corofem(&["run", "tool.toml", "--out", "-"], &dir.0);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let lines = summary_lines(&o);
+    let labels: Vec<&str> = lines.iter().map(|l| l[..11].trim_end()).collect();
+    assert_eq!(
+        labels,
+        ["scene", "ran", "final", "tool", "result"],
+        "{lines:#?}"
+    );
+    assert!(
+        lines[3].starts_with("tool       max |force| "),
+        "{lines:#?}"
+    );
+    assert!(lines[3].ends_with(" N"), "{lines:#?}");
+    assert_eq!(lines[4], "result     standard output");
 }
 
 /// A tetmesh file with one tetrahedron, negatively oriented when `flip`.
