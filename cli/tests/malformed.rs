@@ -280,6 +280,19 @@ fn missing_and_unknown_files_are_named() {
             "cannot read",
         ],
     );
+    // A scene in another folder: the mesh is reported as written and as
+    // resolved against the scene's folder.
+    fs::create_dir_all(dir.path("scenes")).unwrap();
+    dir.write("scenes/s.toml", mesh_scene("meshes/m.tetmesh"));
+    fails(
+        &dir,
+        &["run", "scenes/s.toml", "--out", "r.json"],
+        &[
+            "scenes/s.toml: [mesh] file = \"meshes/m.tetmesh\"",
+            "scenes/meshes/m.tetmesh: cannot read",
+        ],
+    );
+    fs::remove_dir_all(dir.path("scenes")).unwrap();
     dir.write("m.obj", "v 0 0 0\n");
     scene_fails(
         &dir,
@@ -339,6 +352,23 @@ fn unknown_keys_are_named_with_their_table() {
         &format!("{BOX}\n[gound]\nnormal = [0.0, 0.0, 1.0]\n"),
         &["scene.toml:", "gound"],
     );
+    // A misspelt table is an unknown table of the top level, not an
+    // unknown key of the table above it.
+    for (table, name, above) in [
+        ("[solver]", "solvr", "[material]"),
+        ("[output]", "outptu", "[tool]"),
+    ] {
+        let e = scene_fails(
+            &dir,
+            &BOX.replacen(table, &format!("[{name}]"), 1),
+            &[
+                "scene.toml:",
+                &format!("(top level) unknown table `{name}`, expected one of `mesh`"),
+            ],
+        );
+        assert!(!e.contains(above), "{e}");
+        assert!(!e.contains("unknown field"), "{e}");
+    }
 }
 
 #[test]
@@ -412,11 +442,20 @@ fn huge_counts_in_scene_files_are_refused() {
         &BOX.replace("steps = 3", "steps = 9223372036854775808"),
         &["scene.toml:", "[solver]"],
     );
-    scene_fails(
-        &dir,
-        &BOX.replace("cells = [4, 1, 1]", "cells = [65535, 65535, 65535]"),
-        &["scene.toml: [mesh] cells", "at most 65536 nodes"],
-    );
+    for cells in [
+        "[65535, 65535, 65535]",
+        "[65535, 1, 1]",
+        "[70000, 1, 1]",
+        "[9223372036854775807, 1, 1]",
+    ] {
+        scene_fails(
+            &dir,
+            &BOX.replace("cells = [4, 1, 1]", &format!("cells = {cells}")),
+            &[&format!(
+                "scene.toml: [mesh] cells = {cells}: expected at most 65536 nodes in all"
+            )],
+        );
+    }
     scene_fails(
         &dir,
         &BOX.replace("every = 1", "every = 99999999999999999999"),
