@@ -180,13 +180,17 @@ impl<'a> Sim<'a> {
         scene
             .build(&mesh.nodes, &mesh.tets, &spec.material, options)
             .map_err(|e| {
-                let hint = if matches!(e, corofem::Error::InvertedElement { .. }) {
-                    " (or set `reorient = true` in [mesh])"
-                } else {
-                    ""
+                // The core's message suggests re-orientation in its own
+                // terms; the scene file's key replaces that hint.
+                let why = match e {
+                    corofem::Error::InvertedElement { element } => format!(
+                        "tetrahedron {element} is negatively oriented \
+                         (set `reorient = true` in [mesh] to fix it)"
+                    ),
+                    e => e.to_string(),
                 };
                 CliError(format!(
-                    "{file}: [mesh] {}: cannot build the scene: {e}{hint}",
+                    "{file}: [mesh] {}: cannot build the scene: {why}",
                     mesh.name
                 ))
             })?;

@@ -497,9 +497,14 @@ fn mesh_paths_are_relative_to_the_scene_and_reorient_is_optional() {
     assert_eq!(o.status.code(), Some(1));
     let e = stderr(&o);
     assert!(
-        e.contains("negatively oriented") && e.contains("reorient = true"),
+        e.contains(
+            "tetrahedron 0 is negatively oriented (set `reorient = true` in [mesh] to fix it)"
+        ),
         "{e}"
     );
+    // One hint, not the core's and the scene file's.
+    assert_eq!(e.matches("reorient").count(), 1, "{e}");
+    assert!(!e.contains("re-orientation"), "{e}");
     assert!(!dir.path("r.json").exists());
 
     dir.write(
@@ -523,7 +528,11 @@ fn unused_nodes_are_dropped_with_a_note() {
     );
     let o = corofem(&["run", "u.toml", "--out", "u.json"], &dir.0);
     assert!(o.status.success(), "{}", stderr(&o));
-    assert!(stderr(&o).contains("dropped 1 nodes"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("dropped 1 node that no tetrahedron uses"),
+        "{}",
+        stderr(&o)
+    );
     let r: Value = serde_json::from_str(&fs::read_to_string(dir.path("u.json")).unwrap()).unwrap();
     assert_eq!(r["mesh"]["nodes"], 4);
     // Default dt 0.001, reported as written.
@@ -548,6 +557,20 @@ fn info_describes_a_mesh() {
     ] {
         assert!(out.contains(word), "{word:?} missing in\n{out}");
     }
+    // A flat tetrahedron has no orientation: it is degenerate.
+    dir.write(
+        "flat.tetmesh",
+        "tetmesh 1\n4 1\n0 0 0\n1 0 0\n0 1 0\n1 1 0\n0 1 2 3\n",
+    );
+    let o = corofem(&["info", "flat.tetmesh"], &dir.0);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        out.contains("orientation    1 degenerate (zero volume"),
+        "{out}"
+    );
+    assert!(!out.contains("positively oriented"), "{out}");
+    assert!(out.contains("zero volume    1"), "{out}");
     let o = corofem(&["info", "nothing.msh"], &dir.0);
     assert_eq!(o.status.code(), Some(1));
     assert!(stderr(&o).contains("nothing.msh"), "{}", stderr(&o));
