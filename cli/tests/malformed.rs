@@ -241,6 +241,27 @@ fn malformed_gmsh_files_name_the_file() {
     );
 }
 
+#[test]
+fn second_order_gmsh_files_are_explained() {
+    let dir = TempDir::new("msh-order");
+    // Two 10-node (second-order) tetrahedra: say to mesh first-order.
+    let nodes: String = (1..=10).map(|i| format!("{i} {i} 0 {}\n", i % 3)).collect();
+    let second_order = format!(
+        "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n10\n{nodes}$EndNodes\n$Elements\n2\n\
+         1 11 2 0 1 1 2 3 4 5 6 7 8 9 10\n2 11 2 0 1 1 2 3 4 5 6 7 8 9 10\n$EndElements\n"
+    );
+    mesh_fails(
+        &dir,
+        "m.msh",
+        second_order,
+        &[
+            "m.msh: expected at least one 4-node tetrahedron, found none",
+            "2 of them are second- or higher-order tetrahedra",
+            "mesh with first-order elements (Gmsh: `-order 1` or `Mesh.ElementOrder = 1`)",
+        ],
+    );
+}
+
 const VTK: &str = "# vtk DataFile Version 2.0\nm\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS 4 double\n0 0 0\n1 0 0\n0 1 0\n0 0 1\nCELLS 1 5\n4 0 1 2 3\nCELL_TYPES 1\n10\n";
 
 #[test]
