@@ -242,7 +242,7 @@ fn malformed_gmsh_files_name_the_file() {
 }
 
 #[test]
-fn second_order_gmsh_files_are_explained() {
+fn second_order_and_corrupt_binary_gmsh_files_are_explained() {
     let dir = TempDir::new("msh-order");
     // Two 10-node (second-order) tetrahedra: say to mesh first-order.
     let nodes: String = (1..=10).map(|i| format!("{i} {i} 0 {}\n", i % 3)).collect();
@@ -260,6 +260,25 @@ fn second_order_gmsh_files_are_explained() {
             "mesh with first-order elements (Gmsh: `-order 1` or `Mesh.ElementOrder = 1`)",
         ],
     );
+    // A binary MSH 4.1 file spoilt in its $Entities section: each parser
+    // context once ("entity section: entity section: points" before).
+    let mut b = b"$MeshFormat\n4.1 1 8\n".to_vec();
+    b.extend(1i32.to_le_bytes());
+    b.extend(b"\n$EndMeshFormat\n$Entities\n");
+    for v in [3u64, 0, 0, 0] {
+        b.extend(v.to_le_bytes());
+    }
+    b.extend(1i32.to_le_bytes());
+    b.extend([0u8; 24]);
+    b.extend(0u64.to_le_bytes());
+    b.extend(b"garbage\n$EndEntities\n");
+    dir.write("b.msh", &b);
+    let e = fails(
+        &dir,
+        &["info", "b.msh"],
+        &["b.msh: Gmsh MSH 4.1: entity section: points: point entity (2 of 3)"],
+    );
+    assert_eq!(e.matches("entity section").count(), 1, "{e}");
 }
 
 const VTK: &str = "# vtk DataFile Version 2.0\nm\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS 4 double\n0 0 0\n1 0 0\n0 1 0\n0 0 1\nCELLS 1 5\n4 0 1 2 3\nCELL_TYPES 1\n10\n";

@@ -1006,16 +1006,28 @@ fn mshio_error(bytes: &[u8], name: &str, e: &mshio::MshParserError<&[u8]>) -> Me
         .unwrap_or(0);
     let describe =
         |kind: &mshio::error::MshParserErrorKind| kind.to_string().trim_end_matches('.').to_owned();
-    let mut parts: Vec<String> = trace
+    // Outermost context first. mshio nests contexts that repeat their
+    // parent ("entity section" holds "entity section: points"): a context
+    // that starts with the one before it replaces it.
+    let mut parts: Vec<String> = Vec::new();
+    let innermost = match trace.first() {
+        Some((_, kind)) => describe(kind),
+        None => "invalid MSH 4.1 data".to_owned(),
+    };
+    for part in trace
         .iter()
         .skip(1)
         .rev()
         .map(|(_, k)| describe(k))
-        .collect();
-    parts.push(match trace.first() {
-        Some((_, kind)) => describe(kind),
-        None => "invalid MSH 4.1 data".to_owned(),
-    });
+        .chain([innermost])
+    {
+        if let Some(last) = parts.last() {
+            if part == *last || part.starts_with(&format!("{last}: ")) {
+                parts.pop();
+            }
+        }
+        parts.push(part);
+    }
     MeshError::Parse {
         file: name.to_owned(),
         line: None,

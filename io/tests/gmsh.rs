@@ -450,6 +450,31 @@ fn error_second_order_msh_says_to_mesh_first_order() {
 }
 
 #[test]
+fn error_corrupt_binary_msh_names_each_context_once() {
+    let size = |v: u64| v.to_le_bytes().to_vec();
+    let mut b = b"$MeshFormat\n4.1 1 8\n".to_vec();
+    b.extend(1i32.to_le_bytes());
+    b.extend(b"\n$EndMeshFormat\n$Entities\n");
+    for v in [3, 0, 0, 0] {
+        b.extend(size(v));
+    }
+    // One point entity of three, then garbage.
+    b.extend(1i32.to_le_bytes());
+    for x in [0.0f64; 3] {
+        b.extend(x.to_le_bytes());
+    }
+    b.extend(size(0));
+    b.extend(b"garbage\n$EndEntities\n");
+    let e = parse_msh(&b, "bad.msh").unwrap_err();
+    let msg = e.to_string();
+    assert!(
+        msg.starts_with("bad.msh: Gmsh MSH 4.1: entity section: points: point entity (2 of 3)"),
+        "{msg}"
+    );
+    assert_eq!(msg.matches("entity section").count(), 1, "{msg}");
+}
+
+#[test]
 fn error_msh41_huge_count_and_garbage() {
     let mesh = two_tets();
     let text = to_msh41_ascii(&mesh).replace("$Nodes\n2 6 ", "$Nodes\n2 99999999999 ");
