@@ -223,6 +223,30 @@ fn run_c(args: &[&str]) -> Option<u64> {
 
 const STEPS: u32 = 2000;
 
+/// `--help` and `-h` print the usage (they used to be read as a mesh file
+/// named `--help`); an unknown option is a usage error.
+#[test]
+fn c_example_help_prints_usage() {
+    let Some(exe) = std::env::var_os("COROFEM_C_EXAMPLE") else {
+        return;
+    };
+    for flag in ["--help", "-h"] {
+        let out = Command::new(&exe)
+            .arg(flag)
+            .output()
+            .expect("C example runs");
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert!(out.status.success(), "{flag}: {text}");
+        assert!(text.starts_with("usage: haptic_loop "), "{flag}: {text}");
+    }
+    let out = Command::new(&exe)
+        .arg("--bogus")
+        .output()
+        .expect("C example runs");
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stdout).contains("unknown option --bogus"));
+}
+
 #[test]
 fn box_scene_same_hash_from_rust_and_c() {
     let d = box_def();

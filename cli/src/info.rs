@@ -6,6 +6,7 @@ use std::path::Path;
 use corofem_io::MeshStats;
 
 use crate::error::{CliError, CliResult};
+use crate::mesh_input::plural;
 use crate::scene_file::MAX_NODES;
 
 /// Reads `path` and prints its figures on stdout.
@@ -48,21 +49,14 @@ pub fn report(name: &str, s: &MeshStats) -> String {
         "  dihedral angle min {:.2} deg, max {:.2} deg",
         s.min_dihedral_deg, s.max_dihedral_deg
     );
-    let orientation = if s.negative_tets == 0 {
-        "all tetrahedra positively oriented".to_owned()
-    } else {
-        format!(
-            "{} negatively oriented (corofem run rejects them unless [mesh] reorient = true)",
-            s.negative_tets
-        )
-    };
+    let orientation = orientation(s);
     let _ = writeln!(o, "  orientation    {orientation}");
     let _ = writeln!(o, "  zero volume    {}", s.zero_volume_tets);
     if s.unused_nodes > 0 {
         let _ = writeln!(
             o,
-            "  note           corofem run drops the {} unused nodes and renumbers the rest",
-            s.unused_nodes
+            "  note           corofem run drops the {} and renumbers the rest",
+            plural(s.unused_nodes, "unused node")
         );
     }
     if s.nodes - s.unused_nodes > MAX_NODES {
@@ -72,6 +66,32 @@ pub fn report(name: &str, s: &MeshStats) -> String {
         );
     }
     o
+}
+
+/// The orientation line: positive, negative (fixable with `reorient`) or
+/// degenerate (zero volume: no orientation, and no fix).
+fn orientation(s: &MeshStats) -> String {
+    let positive = s.tets - s.negative_tets - s.zero_volume_tets;
+    if positive == s.tets {
+        return "all tetrahedra positively oriented".to_owned();
+    }
+    let mut parts = Vec::new();
+    if s.negative_tets > 0 {
+        parts.push(format!(
+            "{} negatively oriented (corofem run rejects them unless [mesh] reorient = true)",
+            s.negative_tets
+        ));
+    }
+    if s.zero_volume_tets > 0 {
+        parts.push(format!(
+            "{} degenerate (zero volume: corofem run rejects the mesh)",
+            s.zero_volume_tets
+        ));
+    }
+    if positive > 0 {
+        parts.push(format!("{positive} positively oriented"));
+    }
+    parts.join(", ")
 }
 
 /// A number in 6 significant digits.
@@ -127,9 +147,33 @@ mod tests {
             "dihedral",
             "orientation",
             "zero volume",
-            "drops the 1 unused",
+            "drops the 1 unused node and",
         ] {
             assert!(r.contains(word), "{word} missing in\n{r}");
         }
+    }
+
+    #[test]
+    fn a_flat_tetrahedron_is_degenerate_not_positive() {
+        let m = corofem_io::Mesh {
+            nodes: vec![
+                [0.0; 3],
+                [1.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0],
+                [1.0, 1.0, 0.0],
+                [0.0, 0.0, 1.0],
+            ],
+            tets: vec![[0, 1, 2, 3], [0, 1, 2, 4], [0, 2, 1, 4]],
+        };
+        let r = report("t.tetmesh", &corofem_io::mesh_stats(&m));
+        assert!(
+            r.contains(
+                "orientation    1 negatively oriented (corofem run rejects them unless [mesh] \
+                 reorient = true), 1 degenerate (zero volume: corofem run rejects the mesh), \
+                 1 positively oriented"
+            ),
+            "{r}"
+        );
+        assert!(!r.contains("all tetrahedra"), "{r}");
     }
 }

@@ -29,9 +29,10 @@ pub fn load(spec: &MeshSpec, file: &str, notes: &mut Vec<String>) -> CliResult<C
             let dropped = corofem_io::drop_unused_nodes(&mut mesh);
             if dropped > 0 {
                 notes.push(format!(
-                    "{}: dropped {dropped} nodes that no tetrahedron uses; node indices in the scene refer to the {} remaining nodes, renumbered in order",
+                    "{}: dropped {} that no tetrahedron uses; node indices in the scene refer to the {} remaining, renumbered in order",
                     path.display(),
-                    mesh.nodes.len()
+                    plural(dropped, "node"),
+                    plural(mesh.nodes.len(), "node")
                 ));
             }
             (mesh, given.clone())
@@ -44,6 +45,15 @@ pub fn load(spec: &MeshSpec, file: &str, notes: &mut Vec<String>) -> CliResult<C
         tets,
         name: mesh.1,
     })
+}
+
+/// `1 node`, `2 nodes`.
+pub fn plural(n: usize, noun: &str) -> String {
+    if n == 1 {
+        format!("1 {noun}")
+    } else {
+        format!("{n} {noun}s")
+    }
 }
 
 /// `box 10x2x2 cells, 6 tets per cell`.

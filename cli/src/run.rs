@@ -1,7 +1,7 @@
 //! `corofem run`: builds the scene, steps it (or solves for static
 //! equilibrium), records the history and writes the result.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use corofem::VecScene;
@@ -86,9 +86,13 @@ pub fn run(opts: &RunOptions) -> CliResult<()> {
         .write(&result::to_json(&result))
         .map_err(|e| CliError(format!("cannot write the result: {e}")))?;
     if !opts.quiet {
+        let vtk = opts.vtk.as_deref().map(|dir| VtkWritten {
+            dir,
+            frames: result.history.len(),
+        });
         eprintln!(
             "{}",
-            summary(&spec, &mesh, &result, &outcome.extremes, &opts.out)
+            summary(&spec, &mesh, &result, &outcome.extremes, &opts.out, vtk)
         );
     }
     Ok(())
@@ -176,13 +180,17 @@ impl<'a> Sim<'a> {
         scene
             .build(&mesh.nodes, &mesh.tets, &spec.material, options)
             .map_err(|e| {
-                let hint = if matches!(e, corofem::Error::InvertedElement { .. }) {
-                    " (or set `reorient = true` in [mesh])"
-                } else {
-                    ""
+                // The core's message suggests re-orientation in its own
+                // terms; the scene file's key replaces that hint.
+                let why = match e {
+                    corofem::Error::InvertedElement { element } => format!(
+                        "tetrahedron {element} is negatively oriented \
+                         (set `reorient = true` in [mesh] to fix it)"
+                    ),
+                    e => e.to_string(),
                 };
                 CliError(format!(
-                    "{file}: [mesh] {}: cannot build the scene: {e}{hint}",
+                    "{file}: [mesh] {}: cannot build the scene: {why}",
                     mesh.name
                 ))
             })?;
@@ -565,33 +573,38 @@ fn norm(v: [f32; 3]) -> f32 {
     (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
 }
 
-/// The one-paragraph summary printed on stderr.
+/// Where the VTK frames went, for the summary.
+struct VtkWritten<'a> {
+    dir: &'a Path,
+    frames: usize,
+}
+
+/// The summary printed on stderr: one labelled line per topic, values
+/// aligned.
 fn summary(
     spec: &SceneSpec,
     mesh: &CoreMesh,
     r: &RunResult,
     extremes: &Extremes,
     out: &Destination,
+    vtk: Option<VtkWritten<'_>>,
 ) -> String {
-    let last = r.history.last();
-    let ke = last.map_or(0.0, |h| h.kinetic_energy);
-    let ee = last.map_or(0.0, |h| h.elastic_energy);
-    let max_disp = r
-        .final_state
-        .positions
-        .iter()
-        .zip(&mesh.nodes)
-        .map(|(x, x0)| norm([x[0] - x0[0], x[1] - x0[1], x[2] - x0[2]]))
-        .fold(0.0f32, f32::max);
-    let what = format!(
-        "{} ({}, {} nodes, {} tets, {})",
-        spec.file, r.method, r.mesh.nodes, r.mesh.tets, mesh.name
-    );
-    let work = match r.static_solve {
-        Some(s) => format!(
-            "static solve: {} Newton iterations, {}",
-            r.steps,
-            match s.met {
+    let mut lines: Vec<(&str, String)> = Vec::new();
+    lines.push((
+        "scene",
+        format!(
+            "{} ({}, {} nodes, {} tets, {})",
+            spec.file,
+            r.method,
+            thousands(r.mesh.nodes as u64),
+            thousands(r.mesh.tets as u64),
+            mesh.name
+        ),
+    ));
+    let t = &r.timing;
+    match r.static_solve {
+        Some(s) => {
+            let outcome = match s.met {
                 Some("force") => format!(
                     "converged (out-of-balance force {:.1e} of the load)",
                     s.residual
@@ -602,32 +615,133 @@ fn summary(
                     s.update, s.cg_residual, s.residual
                 ),
                 None => "NOT converged".to_owned(),
-            }
+            };
+            lines.push((
+                "static",
+                format!("{} Newton iterations, {outcome}", r.steps),
+            ));
+            lines.push((
+                "wall time",
+                format!(
+                    "{:.3} s; {} ms per iteration (median), {} ms min",
+                    t.total_s,
+                    sig(t.ms_per_step_median),
+                    sig(t.ms_per_step_min)
+                ),
+            ));
+        }
+        None => lines.push((
+            "ran",
+            format!(
+                "{} steps of {} s in {:.3} s; {} ms per step (median), {} ms min",
+                thousands(r.steps),
+                spec.dt,
+                t.total_s,
+                sig(t.ms_per_step_median),
+                sig(t.ms_per_step_min)
+            ),
+        )),
+    }
+    let last = r.history.last();
+    let ke = last.map_or(0.0, |h| h.kinetic_energy);
+    let ee = last.map_or(0.0, |h| h.elastic_energy);
+    let max_disp = r
+        .final_state
+        .positions
+        .iter()
+        .zip(&mesh.nodes)
+        .map(|(x, x0)| norm([x[0] - x0[0], x[1] - x0[1], x[2] - x0[2]]))
+        .fold(0.0f32, f32::max);
+    lines.push((
+        "final",
+        format!(
+            "kinetic {} J, elastic {} J, largest displacement {} m, {} inverted (at most {} during the run)",
+            sig(f64::from(ke)),
+            sig(f64::from(ee)),
+            sig(f64::from(max_disp)),
+            r.final_state.inverted,
+            extremes.inverted
         ),
-        None => format!("{} steps of {} s", r.steps, spec.dt),
-    };
-    let dest = match out {
-        Destination::File(p) => p.display().to_string(),
-        Destination::Stdout => "standard output".into(),
-    };
-    format!(
-        "{what}: {work} in {:.3} s, {:.4} ms per {} (median; min {:.4}). \
-         Final kinetic energy {ke:.4e} J, elastic energy {ee:.4e} J, largest displacement {max_disp:.4} m, \
-         {} inverted elements at the end (at most {} during the run), max |tool force| {:.4} N. \
-         Result written to {dest}.",
-        r.timing.total_s,
-        r.timing.ms_per_step_median,
-        if r.static_solve.is_some() { "iteration" } else { "step" },
-        r.timing.ms_per_step_min,
-        r.final_state.inverted,
-        extremes.inverted,
-        extremes.tool_force,
-    )
+    ));
+    if spec.tool.is_some() {
+        lines.push((
+            "tool",
+            format!("max |force| {} N", sig(f64::from(extremes.tool_force))),
+        ));
+    }
+    lines.push((
+        "result",
+        match out {
+            Destination::File(p) => p.display().to_string(),
+            Destination::Stdout => "standard output".into(),
+        },
+    ));
+    if let Some(v) = vtk {
+        lines.push((
+            "vtk",
+            format!(
+                "{} frames in {} (open series.pvd)",
+                v.frames,
+                v.dir.display()
+            ),
+        ));
+    }
+    let mut text = String::new();
+    for (label, value) in lines {
+        if !text.is_empty() {
+            text.push('\n');
+        }
+        text.push_str(&format!("{label:<10} {value}"));
+    }
+    text
+}
+
+/// `1,331`: a count with thousands separators.
+fn thousands(n: u64) -> String {
+    let digits = n.to_string();
+    let mut s = String::with_capacity(digits.len() + digits.len() / 3);
+    for (i, c) in digits.chars().enumerate() {
+        if i > 0 && (digits.len() - i) % 3 == 0 {
+            s.push(',');
+        }
+        s.push(c);
+    }
+    s
+}
+
+/// `x` in 3 significant digits: plain decimals from 0.001 to 10,000
+/// (`0.0123`, `412`), exponent notation outside (`1.23e-5`), `0` for zero.
+fn sig(x: f64) -> String {
+    if x == 0.0 || !x.is_finite() {
+        return format!("{x}");
+    }
+    let mag = x.abs().log10().floor();
+    if (-3.0..4.0).contains(&mag) {
+        let decimals = (2.0 - mag).max(0.0) as usize;
+        format!("{x:.decimals$}")
+    } else {
+        format!("{x:.2e}")
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn numbers_are_short() {
+        assert_eq!(thousands(0), "0");
+        assert_eq!(thousands(999), "999");
+        assert_eq!(thousands(1331), "1,331");
+        assert_eq!(thousands(1_234_567), "1,234,567");
+        assert_eq!(sig(0.0), "0");
+        assert_eq!(sig(0.0123456), "0.0123");
+        assert_eq!(sig(0.71234), "0.712");
+        assert_eq!(sig(412.3), "412");
+        assert_eq!(sig(1.5), "1.50");
+        assert_eq!(sig(1.234e-5), "1.23e-5");
+        assert_eq!(sig(-2.5e6), "-2.50e6");
+    }
 
     #[test]
     fn times_print_cleanly() {

@@ -321,6 +321,12 @@ fn toml_error(file: &str, text: &str, e: &toml::de::Error) -> CliError {
     } else {
         enclosing_section(&text[..line_start])
     };
+    // serde calls a table a field; on a header line it is a table.
+    let message = if header {
+        message.replacen("unknown field", "unknown table", 1)
+    } else {
+        message.to_owned()
+    };
     let section = section.map(|s| format!("{s} ")).unwrap_or_default();
     CliError(format!(
         "{file}:{line}:{col}: {section}{message}\n  {line} | {line_text}"
@@ -633,11 +639,18 @@ impl Ctx<'_> {
                 {
                     return Err(self.bad(S, "size", List(&size), "three lengths > 0 (m)"));
                 }
-                if !cells
-                    .iter()
-                    .all(|&c| (1..=i64::from(u16::MAX)).contains(&c))
-                {
+                if !cells.iter().all(|&c| c >= 1) {
                     return Err(self.bad(S, "cells", Ints(&cells), "three whole numbers >= 1"));
+                }
+                // In u128: (2^63)^3 fits, so no count overflows here.
+                let nodes: u128 = cells.iter().map(|&c| c as u128 + 1).product();
+                if nodes > MAX_NODES as u128 {
+                    return Err(self.bad(
+                        S,
+                        "cells",
+                        Ints(&cells),
+                        format!("at most {MAX_NODES} nodes in all ((nx+1)(ny+1)(nz+1) = {nodes})"),
+                    ));
                 }
                 let tets_per_cell = m.tets_per_cell.unwrap_or(6);
                 if tets_per_cell != 5 && tets_per_cell != 6 {
@@ -648,17 +661,6 @@ impl Ctx<'_> {
                     cells: cells.map(|c| c as u32),
                     tets_per_cell: tets_per_cell as u8,
                 };
-                if b.node_count() > MAX_NODES {
-                    return Err(self.bad(
-                        S,
-                        "cells",
-                        Ints(&cells),
-                        format!(
-                            "at most {MAX_NODES} nodes in all ((nx+1)(ny+1)(nz+1) = {})",
-                            b.node_count()
-                        ),
-                    ));
-                }
                 MeshSource::Box(b)
             }
         };
@@ -999,6 +1001,47 @@ mod tests {
         assert!(e.contains("probe"), "{e}");
         assert!(e.contains(": (top level) "), "{e}");
         assert!(!e.contains("[solver]"), "{e}");
+    }
+
+    #[test]
+    fn a_misspelt_table_is_an_unknown_table_at_the_top_level() {
+        for (scene, table, not) in [
+            (
+                "[material]\nyoung = 1.0\n[solvr]\nsteps = 3\n",
+                "solvr",
+                "[material]",
+            ),
+            (
+                "[solver]\nsteps = 3\n[outptu]\nevery = 1\n",
+                "outptu",
+                "[solver]",
+            ),
+        ] {
+            let e = parse_str(scene).unwrap_err().0;
+            assert!(
+                e.contains(&format!(": (top level) unknown table `{table}`")),
+                "{e}"
+            );
+            assert!(!e.contains(not), "{e}");
+        }
+    }
+
+    #[test]
+    fn too_many_cells_exceed_the_node_capacity() {
+        for cells in [
+            "[70000, 1, 1]",
+            "[65535, 1, 1]",
+            "[9223372036854775807, 2, 2]",
+        ] {
+            let scene = format!("{}[solver]\nsteps = 1\n", BOX.replace("[5, 1, 1]", cells));
+            let e = parse(&scene, "t.toml", Path::new("")).unwrap_err().0;
+            assert!(
+                e.contains(&format!(
+                    "[mesh] cells = {cells}: expected at most 65536 nodes in all"
+                )),
+                "{e}"
+            );
+        }
     }
 
     #[test]

@@ -303,9 +303,10 @@ fn a_static_solve_that_stops_short_says_so() {
         "{said}"
     );
     assert!(
-        said.contains("static solve: 3 Newton iterations, NOT converged"),
+        said.contains("\nstatic     3 Newton iterations, NOT converged\n"),
         "{said}"
     );
+    assert!(said.contains("\nwall time  "), "{said}");
     let r: Value =
         serde_json::from_str(&fs::read_to_string(dir.path("result.json")).unwrap()).unwrap();
     assert_eq!(r["static"]["converged"], false);
@@ -407,6 +408,77 @@ fn stdout_and_default_destinations() {
     assert!(stderr(&o).contains("3 steps"), "{}", stderr(&o));
 }
 
+/// The summary's lines on stderr, from its first label (`scene`) on.
+fn summary_lines(o: &Output) -> Vec<String> {
+    let e = stderr(o);
+    let lines: Vec<String> = e.lines().map(str::to_owned).collect();
+    let first = lines
+        .iter()
+        .position(|l| l.starts_with("scene      "))
+        .unwrap_or_else(|| panic!("no summary in:\n{e}"));
+    lines[first..].to_vec()
+}
+
+#[test]
+fn the_summary_is_an_aligned_block() {
+    let dir = TempDir::new("summary");
+    dir.write("scene.toml", format!("{BEAM}{DYNAMIC}"));
+    let o = corofem(
+        &["run", "scene.toml", "--out", "r.json", "--vtk", "frames"],
+        &dir.0,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let lines = summary_lines(&o);
+    let labels: Vec<&str> = lines.iter().map(|l| l[..11].trim_end()).collect();
+    assert_eq!(
+        labels,
+        ["scene", "ran", "final", "result", "vtk"],
+        "{lines:#?}"
+    );
+    for l in &lines {
+        assert!(l.len() < 130, "a long summary line: {l}");
+        // Values start in column 12, after the padded label.
+        assert_eq!(&l[10..11], " ", "{l}");
+        assert_ne!(&l[11..12], " ", "{l}");
+    }
+    assert!(
+        lines[0].starts_with("scene      scene.toml (qr, 24 nodes, 30 tets, box 5x1x1 cells"),
+        "{lines:#?}"
+    );
+    assert!(
+        lines[1].starts_with("ran        25 steps of 0.001 s in "),
+        "{lines:#?}"
+    );
+    assert!(lines[2].contains(" inverted (at most "), "{lines:#?}");
+    assert_eq!(lines[3], "result     r.json");
+    assert_eq!(lines[4], "vtk        4 frames in frames (open series.pvd)");
+    // No tool, no tool line (it used to say "max |tool force| 0.0000 N").
+    assert!(!stderr(&o).contains("tool"), "{}", stderr(&o));
+
+    // With a tool: its largest force; the result on standard output.
+    dir.write(
+        "tool.toml",
+        format!(
+            "{BEAM}[solver]\nsteps = 5\n[tool]\nnodes = [5]\nstiffness = 100.0\npath = [[0.0, 0, 0, 0], [0.005, 0, 0, 0.01]]\n"
+        ),
+    );
+    let o = corofem(&["run", "tool.toml", "--out", "-"], &dir.0);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let lines = summary_lines(&o);
+    let labels: Vec<&str> = lines.iter().map(|l| l[..11].trim_end()).collect();
+    assert_eq!(
+        labels,
+        ["scene", "ran", "final", "tool", "result"],
+        "{lines:#?}"
+    );
+    assert!(
+        lines[3].starts_with("tool       max |force| "),
+        "{lines:#?}"
+    );
+    assert!(lines[3].ends_with(" N"), "{lines:#?}");
+    assert_eq!(lines[4], "result     standard output");
+}
+
 /// A tetmesh file with one tetrahedron, negatively oriented when `flip`.
 fn one_tet(flip: bool) -> String {
     let tet = if flip { "0 2 1 3" } else { "0 1 2 3" };
@@ -425,9 +497,14 @@ fn mesh_paths_are_relative_to_the_scene_and_reorient_is_optional() {
     assert_eq!(o.status.code(), Some(1));
     let e = stderr(&o);
     assert!(
-        e.contains("negatively oriented") && e.contains("reorient = true"),
+        e.contains(
+            "tetrahedron 0 is negatively oriented (set `reorient = true` in [mesh] to fix it)"
+        ),
         "{e}"
     );
+    // One hint, not the core's and the scene file's.
+    assert_eq!(e.matches("reorient").count(), 1, "{e}");
+    assert!(!e.contains("re-orientation"), "{e}");
     assert!(!dir.path("r.json").exists());
 
     dir.write(
@@ -451,7 +528,11 @@ fn unused_nodes_are_dropped_with_a_note() {
     );
     let o = corofem(&["run", "u.toml", "--out", "u.json"], &dir.0);
     assert!(o.status.success(), "{}", stderr(&o));
-    assert!(stderr(&o).contains("dropped 1 nodes"), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("dropped 1 node that no tetrahedron uses"),
+        "{}",
+        stderr(&o)
+    );
     let r: Value = serde_json::from_str(&fs::read_to_string(dir.path("u.json")).unwrap()).unwrap();
     assert_eq!(r["mesh"]["nodes"], 4);
     // Default dt 0.001, reported as written.
@@ -476,6 +557,20 @@ fn info_describes_a_mesh() {
     ] {
         assert!(out.contains(word), "{word:?} missing in\n{out}");
     }
+    // A flat tetrahedron has no orientation: it is degenerate.
+    dir.write(
+        "flat.tetmesh",
+        "tetmesh 1\n4 1\n0 0 0\n1 0 0\n0 1 0\n1 1 0\n0 1 2 3\n",
+    );
+    let o = corofem(&["info", "flat.tetmesh"], &dir.0);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        out.contains("orientation    1 degenerate (zero volume"),
+        "{out}"
+    );
+    assert!(!out.contains("positively oriented"), "{out}");
+    assert!(out.contains("zero volume    1"), "{out}");
     let o = corofem(&["info", "nothing.msh"], &dir.0);
     assert_eq!(o.status.code(), Some(1));
     assert!(stderr(&o).contains("nothing.msh"), "{}", stderr(&o));

@@ -241,6 +241,46 @@ fn malformed_gmsh_files_name_the_file() {
     );
 }
 
+#[test]
+fn second_order_and_corrupt_binary_gmsh_files_are_explained() {
+    let dir = TempDir::new("msh-order");
+    // Two 10-node (second-order) tetrahedra: say to mesh first-order.
+    let nodes: String = (1..=10).map(|i| format!("{i} {i} 0 {}\n", i % 3)).collect();
+    let second_order = format!(
+        "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n10\n{nodes}$EndNodes\n$Elements\n2\n\
+         1 11 2 0 1 1 2 3 4 5 6 7 8 9 10\n2 11 2 0 1 1 2 3 4 5 6 7 8 9 10\n$EndElements\n"
+    );
+    mesh_fails(
+        &dir,
+        "m.msh",
+        second_order,
+        &[
+            "m.msh: expected at least one 4-node tetrahedron, found none",
+            "2 of them are second- or higher-order tetrahedra",
+            "mesh with first-order elements (Gmsh: `-order 1` or `Mesh.ElementOrder = 1`)",
+        ],
+    );
+    // A binary MSH 4.1 file spoilt in its $Entities section: each parser
+    // context once ("entity section: entity section: points" before).
+    let mut b = b"$MeshFormat\n4.1 1 8\n".to_vec();
+    b.extend(1i32.to_le_bytes());
+    b.extend(b"\n$EndMeshFormat\n$Entities\n");
+    for v in [3u64, 0, 0, 0] {
+        b.extend(v.to_le_bytes());
+    }
+    b.extend(1i32.to_le_bytes());
+    b.extend([0u8; 24]);
+    b.extend(0u64.to_le_bytes());
+    b.extend(b"garbage\n$EndEntities\n");
+    dir.write("b.msh", &b);
+    let e = fails(
+        &dir,
+        &["info", "b.msh"],
+        &["b.msh: Gmsh MSH 4.1: entity section: points: point entity (2 of 3)"],
+    );
+    assert_eq!(e.matches("entity section").count(), 1, "{e}");
+}
+
 const VTK: &str = "# vtk DataFile Version 2.0\nm\nASCII\nDATASET UNSTRUCTURED_GRID\nPOINTS 4 double\n0 0 0\n1 0 0\n0 1 0\n0 0 1\nCELLS 1 5\n4 0 1 2 3\nCELL_TYPES 1\n10\n";
 
 #[test]
@@ -280,6 +320,19 @@ fn missing_and_unknown_files_are_named() {
             "cannot read",
         ],
     );
+    // A scene in another folder: the mesh is reported as written and as
+    // resolved against the scene's folder.
+    fs::create_dir_all(dir.path("scenes")).unwrap();
+    dir.write("scenes/s.toml", mesh_scene("meshes/m.tetmesh"));
+    fails(
+        &dir,
+        &["run", "scenes/s.toml", "--out", "r.json"],
+        &[
+            "scenes/s.toml: [mesh] file = \"meshes/m.tetmesh\"",
+            "scenes/meshes/m.tetmesh: cannot read",
+        ],
+    );
+    fs::remove_dir_all(dir.path("scenes")).unwrap();
     dir.write("m.obj", "v 0 0 0\n");
     scene_fails(
         &dir,
@@ -339,6 +392,23 @@ fn unknown_keys_are_named_with_their_table() {
         &format!("{BOX}\n[gound]\nnormal = [0.0, 0.0, 1.0]\n"),
         &["scene.toml:", "gound"],
     );
+    // A misspelt table is an unknown table of the top level, not an
+    // unknown key of the table above it.
+    for (table, name, above) in [
+        ("[solver]", "solvr", "[material]"),
+        ("[output]", "outptu", "[tool]"),
+    ] {
+        let e = scene_fails(
+            &dir,
+            &BOX.replacen(table, &format!("[{name}]"), 1),
+            &[
+                "scene.toml:",
+                &format!("(top level) unknown table `{name}`, expected one of `mesh`"),
+            ],
+        );
+        assert!(!e.contains(above), "{e}");
+        assert!(!e.contains("unknown field"), "{e}");
+    }
 }
 
 #[test]
@@ -412,11 +482,20 @@ fn huge_counts_in_scene_files_are_refused() {
         &BOX.replace("steps = 3", "steps = 9223372036854775808"),
         &["scene.toml:", "[solver]"],
     );
-    scene_fails(
-        &dir,
-        &BOX.replace("cells = [4, 1, 1]", "cells = [65535, 65535, 65535]"),
-        &["scene.toml: [mesh] cells", "at most 65536 nodes"],
-    );
+    for cells in [
+        "[65535, 65535, 65535]",
+        "[65535, 1, 1]",
+        "[70000, 1, 1]",
+        "[9223372036854775807, 1, 1]",
+    ] {
+        scene_fails(
+            &dir,
+            &BOX.replace("cells = [4, 1, 1]", &format!("cells = {cells}")),
+            &[&format!(
+                "scene.toml: [mesh] cells = {cells}: expected at most 65536 nodes in all"
+            )],
+        );
+    }
     scene_fails(
         &dir,
         &BOX.replace("every = 1", "every = 99999999999999999999"),

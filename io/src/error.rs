@@ -3,6 +3,8 @@
 use std::fmt;
 use std::io;
 
+use crate::text::plural;
+
 /// Largest node, element or cell count any reader accepts (10 million).
 ///
 /// Counts declared in a file are checked against this limit *before* anything is
@@ -10,6 +12,12 @@ use std::io;
 /// `99999999999 1` fails fast with [`MeshError::TooLarge`] instead of exhausting
 /// memory.
 pub const MAX_COUNT: usize = 10_000_000;
+
+/// What to do about second- or higher-order tetrahedra (10-node and more),
+/// which the readers skip: the one wording of this advice, for every reader
+/// and every program that shows [`MeshError`] messages (the web demo too).
+const FIRST_ORDER_HINT: &str =
+    "corofem uses 4-node tetrahedra; mesh with first-order elements (Gmsh: `-order 1` or `Mesh.ElementOrder = 1`)";
 
 /// Why a mesh file could not be read.
 ///
@@ -108,6 +116,10 @@ pub enum MeshError {
         file: String,
         /// How many elements or cells of other types were skipped.
         skipped: usize,
+        /// How many of the skipped are second- or higher-order tetrahedra
+        /// (Gmsh's 10-node type 11 and the like): the message then says to
+        /// mesh with first-order elements.
+        higher_order: usize,
     },
     /// A declared count exceeds [`MAX_COUNT`]; nothing was allocated for it.
     TooLarge {
@@ -248,10 +260,26 @@ impl MeshError {
             MeshError::UnknownNodeTag { tag, .. } => {
                 write!(f, "element refers to node tag {tag}, which no $Nodes entry defines")
             }
-            MeshError::NoTetrahedra { skipped, .. } => write!(
-                f,
-                "expected at least one 4-node tetrahedron, found none ({skipped} elements of other types skipped)"
-            ),
+            MeshError::NoTetrahedra {
+                skipped,
+                higher_order,
+                ..
+            } => {
+                write!(
+                    f,
+                    "expected at least one 4-node tetrahedron, found none ({} of other types skipped)",
+                    plural(*skipped, "element")
+                )?;
+                if *higher_order > 0 {
+                    let (them, are) = match (*higher_order, *skipped) {
+                        (1, 1) => ("It".to_owned(), "is a second- or higher-order tetrahedron"),
+                        (1, _) => ("1 of them".to_owned(), "is a second- or higher-order tetrahedron"),
+                        (h, _) => (format!("{h} of them"), "are second- or higher-order tetrahedra"),
+                    };
+                    write!(f, ". {them} {are}: {FIRST_ORDER_HINT}")?;
+                }
+                Ok(())
+            }
             MeshError::TooLarge { what, count, .. } => write!(
                 f,
                 "{what} count {count} exceeds the limit of {MAX_COUNT}; refusing to allocate"

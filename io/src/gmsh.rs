@@ -39,6 +39,13 @@ use crate::text::{plural, shorten, tokens, LineReader};
 /// Gmsh element type number of the 4-node tetrahedron.
 const GMSH_TET4: u64 = 4;
 
+/// Whether a Gmsh element type is a tetrahedron of second or higher order
+/// (10-node type 11 and the complete and incomplete ones of GmshDefines.h),
+/// which the readers skip and the error message names.
+fn higher_order_tet(ty: u64) -> bool {
+    matches!(ty, 11 | 29..=33 | 71..=75 | 79..=83)
+}
+
 /// The MSH version a file declares.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Version {
@@ -230,6 +237,8 @@ struct NodeTable {
 struct RawTets {
     tets: Vec<(usize, [u64; 4])>,
     skipped: usize,
+    /// How many of the skipped are higher-order tetrahedra.
+    higher_order: usize,
 }
 
 fn parse_ascii(text: &str, name: &str, version: Version) -> Result<Mesh, MeshError> {
@@ -292,11 +301,16 @@ fn parse_ascii(text: &str, name: &str, version: Version) -> Result<Mesh, MeshErr
             found: "none".to_owned(),
         });
     };
-    let RawTets { tets: raw, skipped } = tets.unwrap_or_default();
+    let RawTets {
+        tets: raw,
+        skipped,
+        higher_order,
+    } = tets.unwrap_or_default();
     if raw.is_empty() {
         return Err(MeshError::NoTetrahedra {
             file: name.to_owned(),
             skipped,
+            higher_order,
         });
     }
     let mut tets = Vec::with_capacity(raw.len());
@@ -438,7 +452,7 @@ fn read_elements(
 ) -> Result<RawTets, MeshError> {
     let n = read_count(r, "element")?;
     let mut tets = Vec::new();
-    let mut skipped = 0;
+    let (mut skipped, mut higher_order) = (0, 0);
     for k in 0..n {
         let (ln, line) = r.expect_line(|| {
             format!(
@@ -474,6 +488,7 @@ fn read_elements(
         let ty = r.u64(ln, t[1], || "element type".to_owned())?;
         if ty != GMSH_TET4 {
             skipped += 1;
+            higher_order += usize::from(higher_order_tet(ty));
             continue;
         }
         let first_node = if version == Version::V1 {
@@ -508,7 +523,11 @@ fn read_elements(
         tets.push((ln, tet));
     }
     expect_end(r, m.end_elements, "element", n)?;
-    Ok(RawTets { tets, skipped })
+    Ok(RawTets {
+        tets,
+        skipped,
+        higher_order,
+    })
 }
 
 /// Reads a header line of `n` values (`layout` names them) and returns its
@@ -715,6 +734,7 @@ fn read_elements_v41(r: &mut LineReader<'_>, start: usize) -> Result<RawTets, Me
             }
             if ty != GMSH_TET4 {
                 raw.skipped += 1;
+                raw.higher_order += usize::from(higher_order_tet(ty));
                 continue;
             }
             let t = tokens(line);
@@ -927,12 +947,15 @@ fn parse_v41_binary(bytes: &[u8], name: &str) -> Result<Mesh, MeshError> {
     }
 
     let mut tets = Vec::new();
-    let mut skipped = 0;
+    let (mut skipped, mut higher_order) = (0, 0);
     if let Some(elements) = &msh.data.elements {
         check_count(name, None, "element", elements.num_elements)?;
         for block in &elements.element_blocks {
             if block.element_type != ElementType::Tet4 {
                 skipped += block.elements.len();
+                if higher_order_tet(block.element_type as u64) {
+                    higher_order += block.elements.len();
+                }
                 continue;
             }
             for element in &block.elements {
@@ -964,6 +987,7 @@ fn parse_v41_binary(bytes: &[u8], name: &str) -> Result<Mesh, MeshError> {
         return Err(MeshError::NoTetrahedra {
             file: name.to_owned(),
             skipped,
+            higher_order,
         });
     }
     Ok(Mesh { nodes, tets })
@@ -982,16 +1006,28 @@ fn mshio_error(bytes: &[u8], name: &str, e: &mshio::MshParserError<&[u8]>) -> Me
         .unwrap_or(0);
     let describe =
         |kind: &mshio::error::MshParserErrorKind| kind.to_string().trim_end_matches('.').to_owned();
-    let mut parts: Vec<String> = trace
+    // Outermost context first. mshio nests contexts that repeat their
+    // parent ("entity section" holds "entity section: points"): a context
+    // that starts with the one before it replaces it.
+    let mut parts: Vec<String> = Vec::new();
+    let innermost = match trace.first() {
+        Some((_, kind)) => describe(kind),
+        None => "invalid MSH 4.1 data".to_owned(),
+    };
+    for part in trace
         .iter()
         .skip(1)
         .rev()
         .map(|(_, k)| describe(k))
-        .collect();
-    parts.push(match trace.first() {
-        Some((_, kind)) => describe(kind),
-        None => "invalid MSH 4.1 data".to_owned(),
-    });
+        .chain([innermost])
+    {
+        if let Some(last) = parts.last() {
+            if part == *last || part.starts_with(&format!("{last}: ")) {
+                parts.pop();
+            }
+        }
+        parts.push(part);
+    }
     MeshError::Parse {
         file: name.to_owned(),
         line: None,

@@ -57,6 +57,7 @@ pub fn parse_tetmesh(text: &str, name: &str) -> Result<Mesh, MeshError> {
         return Err(MeshError::NoTetrahedra {
             file: name.to_owned(),
             skipped: 0,
+            higher_order: 0,
         });
     }
 

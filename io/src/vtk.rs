@@ -88,7 +88,7 @@ fn parse(bytes: &[u8], name: &str, flavour: Flavour) -> Result<Mesh, MeshError> 
     };
 
     let mut mesh = Mesh::default();
-    let mut skipped = 0;
+    let (mut skipped, mut higher_order) = (0, 0);
     for (k, piece) in pieces.into_iter().enumerate() {
         let piece = match piece {
             Piece::Inline(p) => *p,
@@ -101,25 +101,28 @@ fn parse(bytes: &[u8], name: &str, flavour: Flavour) -> Result<Mesh, MeshError> 
                 })
             }
         };
-        skipped += append_piece(&mut mesh, piece, name, k)?;
+        let (s, h) = append_piece(&mut mesh, piece, name, k)?;
+        skipped += s;
+        higher_order += h;
     }
     if mesh.tets.is_empty() {
         return Err(MeshError::NoTetrahedra {
             file: name.to_owned(),
             skipped,
+            higher_order,
         });
     }
     Ok(mesh)
 }
 
 /// Appends the points and tetrahedra of one piece; returns the number of non-tet
-/// cells skipped.
+/// cells skipped and how many of them are higher-order tetrahedra.
 fn append_piece(
     mesh: &mut Mesh,
     piece: UnstructuredGridPiece,
     name: &str,
     k: usize,
-) -> Result<usize, MeshError> {
+) -> Result<(usize, usize), MeshError> {
     let malformed = |expected: &str, found: String| MeshError::Malformed {
         file: name.to_owned(),
         line: None,
@@ -210,11 +213,20 @@ fn append_piece(
         });
     }
 
-    let mut skipped = 0;
+    let (mut skipped, mut higher_order) = (0, 0);
     for (c, ty) in types.iter().enumerate() {
         let cell = &connectivity[starts[c]..starts[c + 1]];
         if *ty != CellType::Tetra {
             skipped += 1;
+            if matches!(
+                ty,
+                CellType::QuadraticTetra
+                    | CellType::HigherOrderTetrahedron
+                    | CellType::LagrangeTetrahedron
+                    | CellType::BezierTetrahedron
+            ) {
+                higher_order += 1;
+            }
             continue;
         }
         if cell.len() != 4 {
@@ -237,7 +249,7 @@ fn append_piece(
         }
         mesh.tets.push(tet);
     }
-    Ok(skipped)
+    Ok((skipped, higher_order))
 }
 
 /// Checks the `POINTS n` and `CELLS n size` lines of a legacy file against the

@@ -345,7 +345,133 @@ fn error_msh_without_tets() {
         "{e:?}"
     );
     let msg = message(&e, "bad.msh", None);
-    assert!(msg.contains("1 elements of other types skipped"), "{msg}");
+    assert!(msg.contains("(1 element of other types skipped)"), "{msg}");
+    assert!(!msg.contains("first-order"), "{msg}");
+}
+
+/// The advice for second-order meshes, as every reader gives it.
+const FIRST_ORDER: &str = "second- or higher-order tetrahedra: corofem uses 4-node \
+    tetrahedra; mesh with first-order elements (Gmsh: `-order 1` or `Mesh.ElementOrder = 1`)";
+
+#[test]
+fn error_second_order_msh_says_to_mesh_first_order() {
+    // Two 10-node tetrahedra (type 11) and a triangle, in MSH 2 ...
+    let nodes: String = (1..=10).map(|i| format!("{i} {i} 0 {}\n", i % 3)).collect();
+    let msh2 = format!(
+        "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n10\n{nodes}$EndNodes\n$Elements\n3\n\
+         1 2 2 0 1 1 2 3\n\
+         2 11 2 0 1 1 2 3 4 5 6 7 8 9 10\n\
+         3 11 2 0 1 1 2 3 4 5 6 7 8 9 10\n$EndElements\n"
+    );
+    let e = err(&msh2);
+    assert!(
+        matches!(
+            e,
+            MeshError::NoTetrahedra {
+                skipped: 3,
+                higher_order: 2,
+                ..
+            }
+        ),
+        "{e:?}"
+    );
+    let msg = message(&e, "bad.msh", None);
+    assert!(
+        msg.ends_with(&format!(
+            "(3 elements of other types skipped). 2 of them are {FIRST_ORDER}"
+        )),
+        "{msg}"
+    );
+    // ... in MSH 4.1 ASCII ...
+    let msh41 = format!(
+        "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n1 10 1 10\n3 1 0 10\n{}{}$EndNodes\n\
+         $Elements\n1 1 1 1\n3 1 11 1\n1 1 2 3 4 5 6 7 8 9 10\n$EndElements\n",
+        (1..=10).map(|i| format!("{i}\n")).collect::<String>(),
+        (1..=10)
+            .map(|i| format!("{i} 0 {}\n", i % 3))
+            .collect::<String>(),
+    );
+    let e = err(&msh41);
+    let msg = message(&e, "bad.msh", None);
+    assert!(
+        msg.ends_with(&format!(
+            "(1 element of other types skipped). It is a {}",
+            FIRST_ORDER.replacen("tetrahedra", "tetrahedron", 1)
+        )),
+        "{msg}"
+    );
+    // ... and in binary MSH 4.1.
+    let size = |b: &mut Vec<u8>, v: u64| b.extend(v.to_le_bytes());
+    let int = |b: &mut Vec<u8>, v: i32| b.extend(v.to_le_bytes());
+    let mut b = b"$MeshFormat\n4.1 1 8\n".to_vec();
+    int(&mut b, 1);
+    b.extend(b"\n$EndMeshFormat\n$Nodes\n");
+    for v in [1, 10, 1, 10] {
+        size(&mut b, v);
+    }
+    for v in [3, 1, 0] {
+        int(&mut b, v);
+    }
+    size(&mut b, 10);
+    for t in 1..=10 {
+        size(&mut b, t);
+    }
+    for i in 1..=10 {
+        for x in [f64::from(i), 0.0, f64::from(i % 3)] {
+            b.extend(x.to_le_bytes());
+        }
+    }
+    b.extend(b"\n$EndNodes\n$Elements\n");
+    for v in [1, 1, 1, 1] {
+        size(&mut b, v);
+    }
+    for v in [3, 1, 11] {
+        int(&mut b, v);
+    }
+    size(&mut b, 1);
+    // Element tag 1, then its ten node tags.
+    size(&mut b, 1);
+    for n in 1..=10 {
+        size(&mut b, n);
+    }
+    b.extend(b"\n$EndElements\n");
+    let e = parse_msh(&b, "bad.msh").unwrap_err();
+    assert!(
+        matches!(
+            e,
+            MeshError::NoTetrahedra {
+                skipped: 1,
+                higher_order: 1,
+                ..
+            }
+        ),
+        "{e:?}"
+    );
+}
+
+#[test]
+fn error_corrupt_binary_msh_names_each_context_once() {
+    let size = |v: u64| v.to_le_bytes().to_vec();
+    let mut b = b"$MeshFormat\n4.1 1 8\n".to_vec();
+    b.extend(1i32.to_le_bytes());
+    b.extend(b"\n$EndMeshFormat\n$Entities\n");
+    for v in [3, 0, 0, 0] {
+        b.extend(size(v));
+    }
+    // One point entity of three, then garbage.
+    b.extend(1i32.to_le_bytes());
+    for x in [0.0f64; 3] {
+        b.extend(x.to_le_bytes());
+    }
+    b.extend(size(0));
+    b.extend(b"garbage\n$EndEntities\n");
+    let e = parse_msh(&b, "bad.msh").unwrap_err();
+    let msg = e.to_string();
+    assert!(
+        msg.starts_with("bad.msh: Gmsh MSH 4.1: entity section: points: point entity (2 of 3)"),
+        "{msg}"
+    );
+    assert_eq!(msg.matches("entity section").count(), 1, "{msg}");
 }
 
 #[test]

@@ -288,6 +288,28 @@ fn error_no_tets_or_not_a_grid() {
         "{e:?}"
     );
 
+    // A quadratic (10-point) tetrahedron: skipped, with the advice to
+    // mesh with first-order elements.
+    let points: String = (0..10).map(|i| format!("{i} 0 {}\n", i % 3)).collect();
+    let quadratic = format!(
+        "# vtk DataFile Version 3.0\nquadratic\nASCII\nDATASET UNSTRUCTURED_GRID\n\
+         POINTS 10 float\n{points}CELLS 1 11\n10 0 1 2 3 4 5 6 7 8 9\nCELL_TYPES 1\n24\n"
+    );
+    let e = parse_vtk_legacy(quadratic.as_bytes(), "bad.vtk").unwrap_err();
+    assert!(
+        matches!(
+            e,
+            MeshError::NoTetrahedra {
+                skipped: 1,
+                higher_order: 1,
+                ..
+            }
+        ),
+        "{e:?}"
+    );
+    let msg = message(&e, "bad.vtk", None);
+    assert!(msg.contains("mesh with first-order elements"), "{msg}");
+
     let poly = "# vtk DataFile Version 3.0\nsurface\nASCII\nDATASET POLYDATA\nPOINTS 3 float\n0 0 0 1 0 0 0 1 0\nPOLYGONS 1 4\n3 0 1 2\n";
     let e = parse_vtk_legacy(poly.as_bytes(), "bad.vtk").unwrap_err();
     let msg = message(&e, "bad.vtk", None);
