@@ -200,7 +200,7 @@ step "firmware tuned for the Cortex-M4 (-C target-cpu=cortex-m4 and _fpu-product
 FW_RUSTFLAGS="-C target-cpu=cortex-m4" FW_TARGET_DIR="$CARGO_TARGET_DIR/firmware-cortex-m4" \
   run_firmware "$REFERENCE" cortex-m4 --features _fpu-product-vmul
 step "firmware with the core's features two-level and nalgebra compiled in, unused ($REFERENCE): the two-level code links panic-free too"
-run_firmware "$REFERENCE" two-level-nalgebra --features corofem/two-level,corofem/nalgebra
+run_firmware "$REFERENCE" two-level --features corofem/two-level,corofem/nalgebra
 
 step "panic-freedom: negative control"
 if (cd "$FW" && cargo build --release --features panic-negative-control) >"$OUT/negative.txt" 2>&1; then
@@ -249,7 +249,8 @@ step "cost per scene size (Qr, 5 CG iterations, 500 steps)"
 } | tee "$OUT/summary.txt"
 echo "(build: vsqrt = default (fpu-sqrt, fpu-product: the assembly product with VMLA),"
 echo " rust-prod = vsqrt and the Rust product, libm = software sqrt and the Rust product,"
-echo " cortex-m4 = -C target-cpu=cortex-m4 and _fpu-product-vmul (VMUL+VADD);"
+echo " cortex-m4 = -C target-cpu=cortex-m4 and _fpu-product-vmul (VMUL+VADD),"
+echo " two-level = vsqrt with the core's features two-level and nalgebra compiled in, unused;"
 echo " stack: bytes of one step; flash, ram: bytes of the image;"
 echo " ram+stk: with the peak stack, which is the mesh generation's scratch)"
 
