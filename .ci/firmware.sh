@@ -11,7 +11,9 @@
 #     with libm's software square root instead of vsqrt as well, and tuned
 #     for the Cortex-M4 with the assembly's VMUL+VADD form
 #     (_fpu-product-vmul), and with the core's features two-level and
-#     nalgebra compiled in but unused: same hash;
+#     nalgebra compiled in but unused: same hash. Every size is also built
+#     running the two-level preconditioner (the firmware's feature
+#     two-level), against the host's and wasm32's hashes of that run;
 #  4. the scene is a `static StaticScene`: an empty scene is all zero bits,
 #     so it must land in .bss. Every build's .data stays under 1 KiB
 #     (MAX_DATA), and the flash images (vectors, code, constants, .data's
@@ -108,20 +110,29 @@ EOF
 step "host: the firmware scene at every size"
 (cd "$ROOT" && cargo test -q -p corofem-host-tests --test firmware_hash -- --nocapture --test-threads 1) \
   >"$OUT/host.txt" 2>&1 || { cat "$OUT/host.txt"; bad "host test"; finish; }
-pairs <"$OUT/host.txt" >"$OUT/host.hashes"
-cat "$OUT/host.hashes"
+# The scene with the lumped mass (firmware-scene lines) and with the
+# two-level preconditioner (firmware-scene-two-level lines).
+grep 'firmware-scene cells=' "$OUT/host.txt" | pairs >"$OUT/host.hashes"
+grep 'firmware-scene-two-level cells=' "$OUT/host.txt" | pairs >"$OUT/host-two-level.hashes"
+cat "$OUT/host.hashes" "$OUT/host-two-level.hashes"
 mapfile -t SIZES < <(cut -d' ' -f1 "$OUT/host.hashes")
 [ "${#SIZES[@]}" -ge 2 ] || { bad "host test printed no sizes"; finish; }
-ok "host test (${#SIZES[@]} sizes)"
-host_hash() { awk -v s="$1" '$1 == s { print $2 }' "$OUT/host.hashes"; }
+[ "$(wc -l <"$OUT/host-two-level.hashes")" -eq "${#SIZES[@]}" ] ||
+  { bad "host test printed no two-level hash for some size"; finish; }
+ok "host test (${#SIZES[@]} sizes, each with both preconditioners)"
+# host_hash CELLS [FILE]: the host's hash of that size (FILE: the mass's).
+host_hash() { awk -v s="$1" '$1 == s { print $2 }' "${2:-$OUT/host.hashes}"; }
 
 step "wasm32: the same scenes under node"
 (cd "$WASM" && cargo build -q --release --target wasm32-unknown-unknown)
-if node "$WASM/hash.mjs" "$MODULE" "${SIZES[@]}" >"$OUT/wasm.txt"; then
-  cat "$OUT/wasm.txt"
+if node "$WASM/hash.mjs" "$MODULE" "${SIZES[@]}" >"$OUT/wasm.txt" &&
+   node "$WASM/hash.mjs" "$MODULE" --two-level "${SIZES[@]}" >"$OUT/wasm-two-level.txt"; then
+  cat "$OUT/wasm.txt" "$OUT/wasm-two-level.txt"
   pairs <"$OUT/wasm.txt" >"$OUT/wasm.hashes"
-  if diff -u "$OUT/host.hashes" "$OUT/wasm.hashes"; then
-    ok "wasm32 hashes equal the host's"
+  pairs <"$OUT/wasm-two-level.txt" >"$OUT/wasm-two-level.hashes"
+  if diff -u "$OUT/host.hashes" "$OUT/wasm.hashes" &&
+     diff -u "$OUT/host-two-level.hashes" "$OUT/wasm-two-level.hashes"; then
+    ok "wasm32 hashes equal the host's, with both preconditioners"
   else
     bad "wasm32 hashes differ from the host's"
   fi
@@ -158,7 +169,7 @@ run_firmware() {
   [ -f "$OUT/defmt.bin" ] && mv "$OUT/defmt.bin" "$log.defmt"
   cat "$log.txt"
   local want got
-  want="$(host_hash "$cells")"
+  want="$(host_hash "$cells" "${FW_HASHES:-}")"
   got="$(pairs <"$log.txt" | cut -d' ' -f2)"
   if [ "$status" -ne 0 ]; then
     bad "firmware $cells ($variant) exited with $status"
@@ -199,8 +210,12 @@ run_firmware "$REFERENCE" libm --no-default-features
 step "firmware tuned for the Cortex-M4 (-C target-cpu=cortex-m4 and _fpu-product-vmul: VMUL+VADD instead of VMLA) ($REFERENCE)"
 FW_RUSTFLAGS="-C target-cpu=cortex-m4" FW_TARGET_DIR="$CARGO_TARGET_DIR/firmware-cortex-m4" \
   run_firmware "$REFERENCE" cortex-m4 --features _fpu-product-vmul
-step "firmware with the core's features two-level and nalgebra compiled in, unused ($REFERENCE): the two-level code links panic-free too"
-run_firmware "$REFERENCE" two-level --features corofem/two-level,corofem/nalgebra
+step "firmware with the core's features two-level and nalgebra compiled in, unused ($REFERENCE): same hash"
+run_firmware "$REFERENCE" features --features corofem/two-level,corofem/nalgebra
+step "firmware running the two-level preconditioner (3 CG iterations, warm start), every size: the host's two-level hashes"
+for cells in "${SIZES[@]}"; do
+  FW_HASHES="$OUT/host-two-level.hashes" run_firmware "$cells" two-level --features two-level
+done
 
 step "panic-freedom: negative control"
 if (cd "$FW" && cargo build --release --features panic-negative-control) >"$OUT/negative.txt" 2>&1; then
@@ -230,7 +245,7 @@ else
     "(COROFEM_INSTALL_DEFMT_PRINT=1 installs it)"
 fi
 
-step "cost per scene size (Qr, 5 CG iterations, 500 steps)"
+step "cost per scene size (Qr, 500 steps; 5 CG iterations, two-level: 3 and warm start)"
 {
   printf '%-8s %5s %5s %-9s %10s %9s %6s %7s %6s %7s\n' \
     cells nodes tets build instr/step instr/tet stack flash ram ram+stk
@@ -250,7 +265,8 @@ step "cost per scene size (Qr, 5 CG iterations, 500 steps)"
 echo "(build: vsqrt = default (fpu-sqrt, fpu-product: the assembly product with VMLA),"
 echo " rust-prod = vsqrt and the Rust product, libm = software sqrt and the Rust product,"
 echo " cortex-m4 = -C target-cpu=cortex-m4 and _fpu-product-vmul (VMUL+VADD),"
-echo " two-level = vsqrt with the core's features two-level and nalgebra compiled in, unused;"
+echo " features = vsqrt with the core's features two-level and nalgebra compiled in, unused;"
+echo " two-level = vsqrt running the two-level preconditioner, 3 CG iterations with warm start;"
 echo " stack: bytes of one step; flash, ram: bytes of the image;"
 echo " ram+stk: with the peak stack, which is the mesh generation's scratch)"
 

@@ -63,10 +63,12 @@ pub struct NodeBlock {
 }
 
 impl NodeBlock {
-    /// An unused slot.
+    /// An unused slot: all zero bits, so that a storage of them in a
+    /// `static` lands in `.bss` and costs no flash. (Its aggregate reads 0
+    /// until [`aggregate`] assigns every slot; nothing reads it before.)
     pub const EMPTY: Self = Self {
         inv: [0.0; 6],
-        aggregate: NONE,
+        aggregate: 0,
         order: 0,
     };
 }
@@ -98,15 +100,25 @@ pub struct Aggregate {
 }
 
 impl Aggregate {
-    /// An unused slot.
+    /// An unused slot: all zero bits, so that a storage of them in a
+    /// `static` lands in `.bss` and costs no flash. [`aggregate`] starts
+    /// every aggregate it uses from [`Aggregate::FRESH`].
     pub const EMPTY: Self = Self {
         c0: [0.0; 3],
         s0: [[0.0; 3]; 3],
+        rot: [[0.0; 3]; 3],
+        q_step: [0.0; 4],
+        q: [0.0; 4],
+        apq: [[0.0; 3]; 3],
+        y: [0.0; 6],
+    };
+
+    /// A new aggregate: not turned.
+    const FRESH: Self = Self {
         rot: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
         q_step: IDENTITY,
         q: IDENTITY,
-        apq: [[0.0; 3]; 3],
-        y: [0.0; 6],
+        ..Self::EMPTY
     };
 }
 
@@ -558,7 +570,7 @@ pub(crate) fn aggregate(nodes: &[Node], blocks: &mut [NodeBlock], aggs: &mut [Ag
     heap_sort(blocks, |a, b| a.order < b.order);
     let aggs = &mut aggs[..count];
     for a in aggs.iter_mut() {
-        *a = Aggregate::EMPTY;
+        *a = Aggregate::FRESH;
     }
     // Centroids: Σ m x₀ / Σ m, in node order (the mass summed in `s0[0][0]`
     // until the division).

@@ -193,8 +193,14 @@ pub struct Scene<S: Storage> {
 pub type StaticScene<const N: usize, const B: usize, const G: usize = 0, const L: usize = 0> =
     Scene<ArrayStorage<N, B, G, L>>;
 
-impl<const N: usize, const B: usize, const G: usize, const L: usize>
-    Scene<ArrayStorage<N, B, G, L>>
+impl<
+        const N: usize,
+        const B: usize,
+        const G: usize,
+        const L: usize,
+        const P: usize,
+        const A: usize,
+    > Scene<ArrayStorage<N, B, G, L, P, A>>
 {
     /// An empty scene, in `const` context.
     #[must_use]
@@ -206,8 +212,14 @@ impl<const N: usize, const B: usize, const G: usize, const L: usize>
     }
 }
 
-impl<const N: usize, const B: usize, const G: usize, const L: usize> Default
-    for Scene<ArrayStorage<N, B, G, L>>
+impl<
+        const N: usize,
+        const B: usize,
+        const G: usize,
+        const L: usize,
+        const P: usize,
+        const A: usize,
+    > Default for Scene<ArrayStorage<N, B, G, L, P, A>>
 {
     fn default() -> Self {
         Self::new()

@@ -4,18 +4,26 @@
 //! `firmware-scene` line; `.ci/firmware.sh` compares their hashes with the
 //! firmware's and the wasm module's, which must be bit-identical.
 
+use corofem::Preconditioner;
 use corofem_test_scenes::firmware as scene;
 
 fn run(cells: [u32; 3]) -> scene::Outcome {
+    run_with(cells, Preconditioner::Mass)
+}
+
+/// The scene with `pre`; prints `firmware-scene` (the mass preconditioner)
+/// or `firmware-scene-two-level`, the line `.ci/firmware.sh` reads.
+fn run_with(cells: [u32; 3], pre: Preconditioner) -> scene::Outcome {
     let mesh = scene::mesh(cells);
     let (n, t) = (mesh.node_count(), mesh.tet_count());
     let mut nodes = vec![[0.0f32; 3]; n];
     let mut tets = vec![[0u32; 4]; t];
     let mut s = corofem::VecScene::with_capacity(n, t);
-    let start = scene::setup(&mut s, cells, &mut nodes, &mut tets).expect("scene builds");
+    let start = scene::setup_with(&mut s, cells, &mut nodes, &mut tets, pre).expect("scene builds");
     let out = scene::run(&mut s, start, |s, target| s.step_haptic(target)).expect("steps");
     println!(
-        "firmware-scene cells={}x{}x{} nodes={n} tets={t} hash={:#018x} peak_push={:.4} N final_force=[{:.4}, {:.4}, {:.4}] N",
+        "firmware-scene{} cells={}x{}x{} nodes={n} tets={t} hash={:#018x} peak_push={:.4} N final_force=[{:.4}, {:.4}, {:.4}] N",
+        if pre == Preconditioner::Mass { "" } else { "-two-level" },
         cells[0],
         cells[1],
         cells[2],
@@ -42,4 +50,88 @@ fn firmware_scene_golden_hash() {
     // with and without `fpu-sqrt`) and wasm32 print the same value.
     let out = run(scene::REFERENCE);
     assert_eq!(out.hash, 0x70cc_9f3f_9a04_7405, "{:#018x}", out.hash);
+}
+
+#[test]
+fn firmware_scene_with_two_level_is_plausible_at_every_size() {
+    for cells in scene::SIZES {
+        let out = run_with(cells, Preconditioner::TwoLevel);
+        assert_eq!(
+            scene::check_with(&out, Preconditioner::TwoLevel),
+            Ok(()),
+            "{cells:?}: {out:?}"
+        );
+    }
+}
+
+#[test]
+fn firmware_scene_with_two_level_golden_hash() {
+    // Recorded on x86_64 (rustc 1.95); the firmware's two-level build
+    // (thumbv7em-none-eabihf) prints the same value.
+    let out = run_with(scene::REFERENCE, Preconditioner::TwoLevel);
+    assert_eq!(out.hash, 0x9d16_c996_a6f4_a617, "{:#018x}", out.hash);
+}
+
+/// Displacements after every step of the reference scene with `pre` and
+/// `iterations` CG iterations (`tolerance` 0: the whole budget).
+fn trajectory(pre: Preconditioner, iterations: u32, tolerance: f32) -> Vec<Vec<[f64; 3]>> {
+    let cells = scene::REFERENCE;
+    let mesh = scene::mesh(cells);
+    let (n, t) = (mesh.node_count(), mesh.tet_count());
+    let mut nodes = vec![[0.0f32; 3]; n];
+    let mut tets = vec![[0u32; 4]; t];
+    let mut s = corofem::VecScene::with_capacity(n, t);
+    let start = scene::setup_with(&mut s, cells, &mut nodes, &mut tets, pre).expect("scene builds");
+    let mut settings = *s.settings();
+    settings.cg_iterations = iterations;
+    settings.cg_tolerance = tolerance;
+    s.set_settings(settings).expect("settings");
+    (1..=scene::STEPS)
+        .map(|k| {
+            s.step_haptic(scene::tool_target(start, k)).expect("step");
+            (0..n as u32)
+                .map(|i| s.displacement(i).expect("node").map(f64::from))
+                .collect()
+        })
+        .collect()
+}
+
+/// Relative RMS difference of two trajectories, over the RMS of `reference`.
+fn relative(a: &[Vec<[f64; 3]>], reference: &[Vec<[f64; 3]>]) -> f64 {
+    let (mut num, mut den) = (0.0f64, 0.0f64);
+    for (p, q) in a.iter().flatten().zip(reference.iter().flatten()) {
+        for k in 0..3 {
+            num += (p[k] - q[k]).powi(2);
+            den += q[k].powi(2);
+        }
+    }
+    (num / den).sqrt()
+}
+
+#[test]
+fn firmware_scene_two_level_is_as_close_to_converged_steps_as_mass() {
+    // Converged steps: two-level CG to a residual of 1e-7 of its start,
+    // which f32 reaches on this 297-unknown system (the mass-preconditioned
+    // solve to the same tolerance agrees to ~5e-7 of the displacement).
+    let exact = trajectory(Preconditioner::TwoLevel, 400, 1.0e-7);
+    let settings = |p| scene::settings_with(p).cg_iterations;
+    let mass = relative(
+        &trajectory(Preconditioner::Mass, settings(Preconditioner::Mass), 0.0),
+        &exact,
+    );
+    let two = relative(
+        &trajectory(
+            Preconditioner::TwoLevel,
+            settings(Preconditioner::TwoLevel),
+            0.0,
+        ),
+        &exact,
+    );
+    println!("firmware scene, error against converged steps: mass {mass:.2e}, two-level {two:.2e}");
+    // The firmware's two-level run (3 iterations) must be no worse than its
+    // mass run (5 iterations): it is the cheaper way to the same accuracy
+    // only if it is at least as accurate.
+    assert!(two <= mass, "two-level {two:.3e} against mass {mass:.3e}");
+    // Both are well inside 1e-4 here: a damped, stiff beam.
+    assert!(mass < 1.0e-4, "mass {mass:.3e}");
 }

@@ -18,7 +18,7 @@ mod host;
 mod logger;
 mod measure;
 
-use corofem::{element_blocks, BoxMesh, StaticScene, Vec3};
+use corofem::{element_blocks, BoxMesh, Preconditioner, Vec3};
 use corofem_test_scenes::firmware as scene;
 use cortex_m_rt::entry;
 use cortex_m_semihosting::debug::{self, EXIT_FAILURE, EXIT_SUCCESS};
@@ -43,8 +43,26 @@ const G: usize = scene::grabbed_nodes(CELLS);
 /// step into its element/node passes and its CG iterations.
 const SPLIT_STEPS: u32 = 20;
 
+/// The preconditioner the haptic loop runs with: the lumped mass, or with
+/// the feature `two-level` the two-level preconditioner, whose node-block
+/// and aggregate slots the storage then holds.
+#[cfg(not(feature = "two-level"))]
+const PRECONDITIONER: Preconditioner = Preconditioner::Mass;
+#[cfg(feature = "two-level")]
+const PRECONDITIONER: Preconditioner = Preconditioner::TwoLevel;
+/// Node-block preconditioner slots: one per node with `two-level`.
+#[cfg(not(feature = "two-level"))]
+const P: usize = 0;
+#[cfg(feature = "two-level")]
+const P: usize = N;
+/// Aggregate slots: what the two-level preconditioner uses for this beam.
+#[cfg(not(feature = "two-level"))]
+const A: usize = 0;
+#[cfg(feature = "two-level")]
+const A: usize = scene::aggregates(CELLS);
+
 /// The scene, with exactly the mesh's capacity.
-type FwScene = StaticScene<N, B, G>;
+type FwScene = corofem::Scene<corofem::ArrayStorage<N, B, G, 0, P, A>>;
 
 #[entry]
 fn main() -> ! {
@@ -135,7 +153,7 @@ fn run(scene: &mut FwScene) -> bool {
             return false;
         }
     };
-    let verdict = scene::check(&outcome);
+    let verdict = scene::check_with(&outcome, PRECONDITIONER);
 
     // The split: the same scene, a few more steps with 1 CG iteration.
     let mut settings = *scene.settings();
@@ -165,7 +183,13 @@ fn setup(scene: &mut FwScene) -> Result<Vec3, corofem::Error> {
     let mut tets = [[0u32; 4]; T];
     // `black_box`: the optimiser may not specialise the build (and so the
     // proof) on this particular size.
-    scene::setup(scene, core::hint::black_box(CELLS), &mut nodes, &mut tets)
+    scene::setup_with(
+        scene,
+        core::hint::black_box(CELLS),
+        &mut nodes,
+        &mut tets,
+        PRECONDITIONER,
+    )
 }
 
 fn report(
@@ -179,11 +203,16 @@ fn report(
     let steps = u64::from(o.steps.max(1));
     let step = cal.instructions(c.step_ticks);
     let split = cal.instructions(c.split_ticks);
-    // Per step with 5 CG iterations (c5) and with 1 (c1): one CG iteration
-    // costs (c5 − c1) / 4, the rest of the step c1 − that.
-    let c5 = step.checked_div(steps).unwrap_or(0);
+    // Per step with k CG iterations (ck, the run's budget) and with 1 (c1):
+    // one CG iteration costs (ck − c1) / (k − 1), the rest of the step c1 −
+    // that.
+    let k = u64::from(scene::settings_with(PRECONDITIONER).cg_iterations);
+    let ck = step.checked_div(steps).unwrap_or(0);
     let c1 = split.checked_div(u64::from(SPLIT_STEPS)).unwrap_or(0);
-    let cg_iter = c5.saturating_sub(c1) / 4;
+    let cg_iter = ck
+        .saturating_sub(c1)
+        .checked_div(k.saturating_sub(1))
+        .unwrap_or(0);
     let rest = c1.saturating_sub(cg_iter);
     let per_tet = |v: u64| (v * 10).checked_div(tets).unwrap_or(0);
 
@@ -195,8 +224,8 @@ fn report(
     );
     defmt::info!(
         "{=u64} instructions per step, {=u64} per tetrahedron-step (x10); one CG iteration {=u64}, the rest {=u64}",
-        c5,
-        per_tet(c5),
+        ck,
+        per_tet(ck),
         cg_iter,
         rest
     );
@@ -243,9 +272,9 @@ fn report(
         .str(" instr_per_tick=")
         .fixed(cal.instructions(1000), 3)
         .str(" instr_per_step=")
-        .u64(c5)
+        .u64(ck)
         .str(" instr_per_tet_step=")
-        .fixed(per_tet(c5), 1)
+        .fixed(per_tet(ck), 1)
         .str(" cg_iter_per_tet=")
         .fixed(per_tet(cg_iter), 1)
         .str(" rest_per_tet=")
