@@ -95,6 +95,27 @@ typedef uint32_t corofem_method;
 #endif // __STDC_VERSION__ >= 202311L
 #endif // __cplusplus
 
+// Preconditioner codes for `corofem_settings.preconditioner`.
+enum corofem_preconditioner
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+    // The lumped mass, the paper's CG (the default).
+    COROFEM_PRECONDITIONER_MASS = 0,
+    // The 3×3 node blocks of the system matrix.
+    COROFEM_PRECONDITIONER_BLOCK_JACOBI = 1,
+    // Node blocks plus rigid-body modes per aggregate of nodes.
+    COROFEM_PRECONDITIONER_TWO_LEVEL = 2,
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum corofem_preconditioner corofem_preconditioner;
+#else
+typedef uint32_t corofem_preconditioner;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+
 // The scene handle: the front of the caller's buffer. Opaque to C.
 typedef struct corofem_scene corofem_scene;
 
@@ -129,6 +150,11 @@ typedef struct {
     uint32_t warm_start;
     // Gravity (m/s²). Default (0, 0, −9.81).
     float gravity[3];
+    // Preconditioner code (`COROFEM_PRECONDITIONER_*`). Default mass.
+    // `TWO_LEVEL` and `BLOCK_JACOBI` need a library built with the feature
+    // `two-level` (the host default); otherwise `corofem_set_settings`
+    // returns `COROFEM_UNSUPPORTED`.
+    uint32_t preconditioner;
 } corofem_settings;
 
 // What the last step did.

@@ -14,6 +14,9 @@
 //!
 //! `B = element_blocks(T)`: elements are stored in blocks of
 //! `ELEMENTS_PER_BLOCK` (8 on targets with vector registers, 1 on a Cortex-M4F).
+//! With the feature `two-level`, the preconditioners' slots follow: a
+//! `NodeBlock` per node, `A = aggregates_for(N, MAX_AGGREGATES)` aggregates
+//! and `coarse_blocks_for(A)` blocks of their coarse factor.
 //!
 //! The handle holds a `Scene<SliceStorage<'static>>` whose slices point into
 //! the same buffer, so the buffer must stay where it is, untouched by the
@@ -30,6 +33,8 @@ use core::ptr;
 use corofem_core::{
     element_blocks, ElementBlock, Node, NodeEntry, NodeWork, Scene, SliceStorage, StepStats,
 };
+#[cfg(feature = "two-level")]
+use corofem_core::{Aggregate, CoarseBlock, NodeBlock};
 
 use crate::status::Status;
 
@@ -70,6 +75,10 @@ struct Plan {
     entries: usize,
     /// Element blocks for the element capacity.
     blocks: usize,
+    /// The preconditioners' slots (feature `two-level`): node blocks (one
+    /// per node), aggregates, the coarse factor, and how many aggregates.
+    #[cfg(feature = "two-level")]
+    precond: (usize, usize, usize, usize),
     size: usize,
     align: usize,
 }
@@ -105,12 +114,25 @@ fn plan(max_nodes: usize, max_tets: usize, slots: Slots) -> Option<Plan> {
     let (l, entries) = l
         .extend(Layout::array::<NodeEntry>(slots.grabs.checked_add(slots.loads)?).ok()?)
         .ok()?;
+    // As `VecStorage` sizes them: the aggregates a body of `max_nodes` free
+    // nodes would use, and their coarse factor.
+    #[cfg(feature = "two-level")]
+    let (l, precond) = {
+        let aggs = corofem_core::aggregates_for(max_nodes, corofem_core::MAX_AGGREGATES);
+        let coarse = corofem_core::coarse_blocks_for(aggs);
+        let (l, b) = l.extend(Layout::array::<NodeBlock>(max_nodes).ok()?).ok()?;
+        let (l, a) = l.extend(Layout::array::<Aggregate>(aggs).ok()?).ok()?;
+        let (l, c) = l.extend(Layout::array::<CoarseBlock>(coarse).ok()?).ok()?;
+        (l, (b, a, c, aggs))
+    };
     Some(Plan {
         nodes,
         work,
         elems,
         entries,
         blocks,
+        #[cfg(feature = "two-level")]
+        precond,
         size: l.size(),
         align: l.align(),
     })
@@ -190,6 +212,28 @@ pub unsafe fn init(
         )
         .with_grabs(core::slice::from_raw_parts_mut(grabs, slots.grabs))
         .with_loads(core::slice::from_raw_parts_mut(loads, slots.loads));
+        #[cfg(feature = "two-level")]
+        let storage = {
+            let (b, a, c, aggs) = p.precond;
+            let coarse = corofem_core::coarse_blocks_for(aggs);
+            let blocks = base.add(b).cast::<NodeBlock>();
+            let agg = base.add(a).cast::<Aggregate>();
+            let fac = base.add(c).cast::<CoarseBlock>();
+            for i in 0..max_nodes {
+                blocks.add(i).write(NodeBlock::EMPTY);
+            }
+            for i in 0..aggs {
+                agg.add(i).write(Aggregate::EMPTY);
+            }
+            for i in 0..coarse {
+                fac.add(i).write(CoarseBlock::EMPTY);
+            }
+            storage.with_preconditioner(
+                core::slice::from_raw_parts_mut(blocks, max_nodes),
+                core::slice::from_raw_parts_mut(agg, aggs),
+                core::slice::from_raw_parts_mut(fac, coarse),
+            )
+        };
         let handle = base.cast::<SceneHandle>();
         handle.write(SceneHandle {
             magic: MAGIC,
@@ -258,9 +302,15 @@ mod tests {
     #[test]
     fn sizes_add_up() {
         let b = scene_bytes(4, 1, Slots::every_node(4)).unwrap();
-        let parts = size_of::<SceneHandle>()
+        #[allow(unused_mut)] // only the preconditioners' slots add to it
+        let mut parts = size_of::<SceneHandle>()
             + 4 * (size_of::<Node>() + size_of::<NodeWork>() + 2 * size_of::<NodeEntry>())
             + size_of::<ElementBlock>();
+        #[cfg(feature = "two-level")]
+        {
+            // One aggregate for four nodes, its 1×1 block factor.
+            parts += 4 * size_of::<NodeBlock>() + size_of::<Aggregate>() + size_of::<CoarseBlock>();
+        }
         assert!(b >= parts && b < parts + 16, "{b} vs {parts}");
         let n = COROFEM_MAX_NODES + 1;
         assert_eq!(

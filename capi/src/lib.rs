@@ -48,7 +48,9 @@ mod types;
 pub use api::*;
 pub use arena::{scene_bytes, SceneHandle, Slots, COROFEM_MAX_NODES};
 pub use status::Status;
-pub use types::{Material, MethodCode, Settings, Stats, COROFEM_BUILD_REORIENT};
+pub use types::{
+    Material, MethodCode, PreconditionerCode, Settings, Stats, COROFEM_BUILD_REORIENT,
+};
 
 /// Bare-metal staticlibs need a panic handler; nothing in this crate or the
 /// core panics, so reaching it is a bug: stop here for a debugger.

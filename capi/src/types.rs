@@ -1,6 +1,6 @@
 //! The plain C structs and the method codes.
 
-use corofem_core::Method;
+use corofem_core::{Method, Preconditioner};
 
 use crate::ptr::Plain;
 use crate::status::Status;
@@ -28,6 +28,38 @@ pub fn method_from_code(code: u32) -> Result<Method, Status> {
         .get(i)
         .copied()
         .ok_or(Status::InvalidArgument)
+}
+
+/// Preconditioner codes for `corofem_settings.preconditioner`.
+#[repr(u32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PreconditionerCode {
+    /// The lumped mass, the paper's CG (the default).
+    Mass = 0,
+    /// The 3×3 node blocks of the system matrix.
+    BlockJacobi = 1,
+    /// Node blocks plus rigid-body modes per aggregate of nodes.
+    TwoLevel = 2,
+}
+
+/// The core preconditioner for a C code (the order of
+/// `Preconditioner::VARIANTS`). One the library was built without is the
+/// scene's to refuse (`Status::Unsupported`).
+pub fn preconditioner_from_code(code: u32) -> Result<Preconditioner, Status> {
+    let i = usize::try_from(code).map_err(|_| Status::InvalidArgument)?;
+    Preconditioner::VARIANTS
+        .get(i)
+        .copied()
+        .ok_or(Status::InvalidArgument)
+}
+
+/// The C code of a core preconditioner.
+#[must_use]
+pub fn preconditioner_code(p: Preconditioner) -> u32 {
+    Preconditioner::VARIANTS
+        .iter()
+        .position(|v| *v == p)
+        .map_or(u32::MAX, |i| i as u32)
 }
 
 /// The C code of a core method.
@@ -78,6 +110,11 @@ pub struct Settings {
     pub warm_start: u32,
     /// Gravity (m/s²). Default (0, 0, −9.81).
     pub gravity: [f32; 3],
+    /// Preconditioner code (`COROFEM_PRECONDITIONER_*`). Default mass.
+    /// `TWO_LEVEL` and `BLOCK_JACOBI` need a library built with the feature
+    /// `two-level` (the host default); otherwise `corofem_set_settings`
+    /// returns `COROFEM_UNSUPPORTED`.
+    pub preconditioner: u32,
 }
 
 impl Settings {
@@ -93,6 +130,7 @@ impl Settings {
             rayleigh_stiffness: s.rayleigh_stiffness,
             warm_start: u32::from(s.warm_start),
             gravity: s.gravity,
+            preconditioner: preconditioner_code(s.preconditioner),
         }
     }
 
@@ -106,7 +144,7 @@ impl Settings {
             rayleigh_mass: self.rayleigh_mass,
             rayleigh_stiffness: self.rayleigh_stiffness,
             warm_start: self.warm_start != 0,
-            preconditioner: corofem_core::Preconditioner::DEFAULT,
+            preconditioner: preconditioner_from_code(self.preconditioner)?,
             gravity: self.gravity,
         })
     }

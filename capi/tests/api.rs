@@ -353,6 +353,29 @@ fn methods_and_ground_switch() {
             assert_eq!(s.method, m as u32);
             assert_eq!(corofem_step(f.h, null_mut()), Status::Ok);
         }
+        // Every preconditioner code is accepted and read back; an unknown
+        // one is refused and leaves the settings as they were.
+        for p in [
+            PreconditionerCode::TwoLevel,
+            PreconditionerCode::BlockJacobi,
+            PreconditionerCode::Mass,
+        ] {
+            let mut s = std::mem::zeroed::<Settings>();
+            assert_eq!(corofem_get_settings(f.h, &mut s), Status::Ok);
+            s.preconditioner = p as u32;
+            assert_eq!(corofem_set_settings(f.h, &s), Status::Ok, "{p:?}");
+            let mut back = std::mem::zeroed::<Settings>();
+            assert_eq!(corofem_get_settings(f.h, &mut back), Status::Ok);
+            assert_eq!(back.preconditioner, p as u32);
+            assert_eq!(corofem_step(f.h, null_mut()), Status::Ok, "{p:?}");
+        }
+        let mut s = std::mem::zeroed::<Settings>();
+        assert_eq!(corofem_get_settings(f.h, &mut s), Status::Ok);
+        let before = s;
+        s.preconditioner = 3;
+        assert_eq!(corofem_set_settings(f.h, &s), Status::InvalidArgument);
+        assert_eq!(corofem_get_settings(f.h, &mut s), Status::Ok);
+        assert_eq!(s, before);
         let up = [0.0f32, 0.0, 1.0];
         assert_eq!(corofem_set_ground(f.h, up.as_ptr(), -0.5), Status::Ok);
         assert_eq!(

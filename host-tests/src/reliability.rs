@@ -249,6 +249,12 @@ pub fn run_case(body: &Body, case: Case, method: Method, max_recovery_steps: u64
             .and_then(|a| a.parse().ok())
             .unwrap_or(ALPHA_K),
         gravity: [0.0; 3],
+        // `COROFEM_SWEEP_PRECONDITIONER=two-level` (or `block-jacobi`) runs
+        // the sweep with another preconditioner than the default.
+        preconditioner: std::env::var("COROFEM_SWEEP_PRECONDITIONER")
+            .ok()
+            .and_then(|p| corofem::Preconditioner::from_name(&p))
+            .unwrap_or_default(),
         ..Settings::default()
     };
     if let Err(e) = scene.set_settings(settings) {
