@@ -23,11 +23,27 @@ pub enum MethodCode {
 /// `Method::VARIANTS`). A method that is not compiled in is the scene's to
 /// refuse (`Status::Unsupported`).
 pub fn method_from_code(code: u32) -> Result<Method, Status> {
+    from_code(&Method::VARIANTS, code)
+}
+
+/// The C code of a core method.
+#[must_use]
+pub fn method_code(m: Method) -> u32 {
+    code_of(&Method::VARIANTS, m)
+}
+
+/// The value of C code `code`: its place in `variants`.
+fn from_code<T: Copy>(variants: &[T], code: u32) -> Result<T, Status> {
     let i = usize::try_from(code).map_err(|_| Status::InvalidArgument)?;
-    Method::VARIANTS
-        .get(i)
-        .copied()
-        .ok_or(Status::InvalidArgument)
+    variants.get(i).copied().ok_or(Status::InvalidArgument)
+}
+
+/// The C code of `value`: its place in `variants` (`u32::MAX` if absent).
+fn code_of<T: PartialEq>(variants: &[T], value: T) -> u32 {
+    variants
+        .iter()
+        .position(|v| *v == value)
+        .map_or(u32::MAX, |i| i as u32)
 }
 
 /// Preconditioner codes for `corofem_settings.preconditioner`.
@@ -46,29 +62,13 @@ pub enum PreconditionerCode {
 /// `Preconditioner::VARIANTS`). One the library was built without is the
 /// scene's to refuse (`Status::Unsupported`).
 pub fn preconditioner_from_code(code: u32) -> Result<Preconditioner, Status> {
-    let i = usize::try_from(code).map_err(|_| Status::InvalidArgument)?;
-    Preconditioner::VARIANTS
-        .get(i)
-        .copied()
-        .ok_or(Status::InvalidArgument)
+    from_code(&Preconditioner::VARIANTS, code)
 }
 
 /// The C code of a core preconditioner.
 #[must_use]
 pub fn preconditioner_code(p: Preconditioner) -> u32 {
-    Preconditioner::VARIANTS
-        .iter()
-        .position(|v| *v == p)
-        .map_or(u32::MAX, |i| i as u32)
-}
-
-/// The C code of a core method.
-#[must_use]
-pub fn method_code(m: Method) -> u32 {
-    Method::VARIANTS
-        .iter()
-        .position(|v| *v == m)
-        .map_or(u32::MAX, |i| i as u32)
+    code_of(&Preconditioner::VARIANTS, p)
 }
 
 /// Build flag: swap two nodes of negatively oriented tetrahedra instead of

@@ -14,12 +14,8 @@ fn run(cells: [u32; 3]) -> scene::Outcome {
 /// The scene with `pre`; prints `firmware-scene` (the mass preconditioner)
 /// or `firmware-scene-two-level`, the line `.ci/firmware.sh` reads.
 fn run_with(cells: [u32; 3], pre: Preconditioner) -> scene::Outcome {
-    let mesh = scene::mesh(cells);
-    let (n, t) = (mesh.node_count(), mesh.tet_count());
-    let mut nodes = vec![[0.0f32; 3]; n];
-    let mut tets = vec![[0u32; 4]; t];
-    let mut s = corofem::VecScene::with_capacity(n, t);
-    let start = scene::setup_with(&mut s, cells, &mut nodes, &mut tets, pre).expect("scene builds");
+    let (mut s, start) = set_up(cells, pre);
+    let (n, t) = (s.node_count(), s.element_count());
     let out = scene::run(&mut s, start, |s, target| s.step_haptic(target)).expect("steps");
     println!(
         "firmware-scene{} cells={}x{}x{} nodes={n} tets={t} hash={:#018x} peak_push={:.4} N final_force=[{:.4}, {:.4}, {:.4}] N",
@@ -72,16 +68,22 @@ fn firmware_scene_with_two_level_golden_hash() {
     assert_eq!(out.hash, 0x9d16_c996_a6f4_a617, "{:#018x}", out.hash);
 }
 
-/// Displacements after every step of the reference scene with `pre` and
-/// `iterations` CG iterations (`tolerance` 0: the whole budget).
-fn trajectory(pre: Preconditioner, iterations: u32, tolerance: f32) -> Vec<Vec<[f64; 3]>> {
-    let cells = scene::REFERENCE;
+/// The scene of `cells` with `pre`, set up: the scene and the tool's start.
+fn set_up(cells: [u32; 3], pre: Preconditioner) -> (corofem::VecScene, [f32; 3]) {
     let mesh = scene::mesh(cells);
     let (n, t) = (mesh.node_count(), mesh.tet_count());
     let mut nodes = vec![[0.0f32; 3]; n];
     let mut tets = vec![[0u32; 4]; t];
     let mut s = corofem::VecScene::with_capacity(n, t);
     let start = scene::setup_with(&mut s, cells, &mut nodes, &mut tets, pre).expect("scene builds");
+    (s, start)
+}
+
+/// Displacements after every step of the reference scene with `pre` and
+/// `iterations` CG iterations (`tolerance` 0: the whole budget).
+fn trajectory(pre: Preconditioner, iterations: u32, tolerance: f32) -> Vec<Vec<[f64; 3]>> {
+    let (mut s, start) = set_up(scene::REFERENCE, pre);
+    let n = s.node_count();
     let mut settings = *s.settings();
     settings.cg_iterations = iterations;
     settings.cg_tolerance = tolerance;
