@@ -11,7 +11,7 @@ use std::collections::HashMap;
 
 // The scene is a `VecScene`: in vectors sized at run time (the body can come
 // from a file), with a grab and a load slot for every node.
-use corofem::{BoxMesh, BuildOptions, Material, Method, Plane, Settings, VecScene};
+use corofem::{BoxMesh, BuildOptions, Material, Method, Plane, Preconditioner, Settings, VecScene};
 
 /// A tetrahedral mesh in the core's input form.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -131,6 +131,10 @@ pub struct Params {
     /// Stiffness-proportional Rayleigh damping α_K (s). Default 0.01 (about
     /// 5% of critical on the beam's first mode, 1.5 Hz).
     pub damping: f32,
+    /// What preconditions CG. Default `Mass` (the paper's CG); any other
+    /// starts each step from the last one's solution (warm start), the
+    /// pairing docs/bench.md measures.
+    pub preconditioner: Preconditioner,
 }
 
 impl Params {
@@ -143,6 +147,7 @@ impl Params {
         cg_iterations: 10,
         gravity: true,
         damping: 0.01,
+        preconditioner: Preconditioner::Mass,
     };
 
     fn settings(&self) -> Settings {
@@ -151,6 +156,8 @@ impl Params {
             dt: self.dt,
             cg_iterations: self.cg_iterations,
             rayleigh_stiffness: self.damping,
+            preconditioner: self.preconditioner,
+            warm_start: self.preconditioner != Preconditioner::Mass,
             gravity: if self.gravity {
                 [0.0, 0.0, -9.81]
             } else {
@@ -619,8 +626,8 @@ pub fn expected_hash() -> Option<u64> {
 /// The scripted session whose state hash the wasm module (`cf_hash_script`,
 /// checked by `test/hash.test.mjs` in Node) and the host (`host-tests/tests/
 /// web_hash.rs`) must both produce: every built-in body, every method, the
-/// ground, a clamp, picking, a drag with the tool, a release, and parameter
-/// changes. Returns an FNV-1a hash of the per-part state hashes.
+/// two-level preconditioner, the ground, a clamp, picking, a drag with the
+/// tool, a release, and parameter changes. Returns an FNV-1a hash of the per-part state hashes.
 ///
 /// The expected value is stored once, in `test-scenes/src/web_hash_script.txt`.
 pub fn hash_script() -> Result<u64, String> {
@@ -655,6 +662,18 @@ pub fn hash_script() -> Result<u64, String> {
         mix(app.scene().state_hash());
         mix(u64::from(app.stats().tool_force[2].to_bits()));
     }
+    // The two-level preconditioner (with its warm start) on the same drag.
+    app.set_params(Params {
+        method: Method::Qr,
+        preconditioner: Preconditioner::TwoLevel,
+        ..app.params()
+    })?;
+    for j in 0..10 {
+        let s = j as f32 * 0.004;
+        app.set_target([hit.point[0], hit.point[1] - s, hit.point[2] + s]);
+        app.step_frame(2);
+    }
+    mix(app.scene().state_hash());
     app.release();
     app.step_frame(20);
     mix(app.scene().state_hash());

@@ -155,7 +155,8 @@ pub extern "C" fn cf_message_len() -> u32 {
 
 /// Sets the controls: Young's modulus (Pa), Poisson ratio, method (0 Qr,
 /// 1 Polar, 2 Linear, 3 QrRestB), time step (s), CG iterations, gravity
-/// (0 off). Kept for the next body too. Returns 0, or 1 with the error.
+/// (0 off), preconditioner (0 mass, 1 block-Jacobi, 2 two-level). Kept for
+/// the next body too. Returns 0, or 1 with the error.
 #[allow(unsafe_code)]
 #[no_mangle]
 pub extern "C" fn cf_set_params(
@@ -165,10 +166,16 @@ pub extern "C" fn cf_set_params(
     dt: f32,
     cg_iterations: u32,
     gravity: u32,
+    preconditioner_index: u32,
 ) -> i32 {
     with(|s| {
         let Some(m) = method(method_index) else {
             s.message = format!("no method {method_index}");
+            return 1;
+        };
+        let Some(&pre) = corofem::Preconditioner::VARIANTS.get(preconditioner_index as usize)
+        else {
+            s.message = format!("no preconditioner {preconditioner_index}");
             return 1;
         };
         let p = Params {
@@ -178,6 +185,7 @@ pub extern "C" fn cf_set_params(
             dt,
             cg_iterations,
             gravity: gravity != 0,
+            preconditioner: pre,
             ..s.params
         };
         let r = match s.app.as_mut() {

@@ -139,13 +139,15 @@ test('dragging the beam pulls with a force and deforms it', async () => {
   assert.deepEqual(pageErrors, []);
 });
 
-test('every method runs; with a free beam QR keeps the spin and QR rest-B turns it', async () => {
+test('every method runs; with a free beam QR keeps the spin (with either preconditioner) and QR rest-B turns it', async () => {
   await page.selectOption('#support', '2'); // free: gravity goes off
   assert.equal(await page.isChecked('#gravity'), false);
   await page.fill('#young', '3.7'); // 5e3 Pa: a soft beam wobbles a lot
   const spinDrift = {};
-  for (const [value, name] of [['1', 'polar'], ['2', 'linear'], ['0', 'qr'], ['3', 'qr-rest-b']]) {
+  for (const [value, name, pre] of [['1', 'polar', '0'], ['2', 'linear', '0'], ['0', 'qr two-level', '2'],
+    ['0', 'qr', '0'], ['3', 'qr-rest-b', '0']]) {
     await page.selectOption('#method', value);
+    await page.selectOption('#preconditioner', pre);
     // The same pull for every method, through the module's exports in one
     // synchronous call (no frame runs in between, so it does not depend on
     // this machine's speed): grab one end, pull it for 0.24 s, let go, then
@@ -177,6 +179,8 @@ test('every method runs; with a free beam QR keeps the spin and QR rest-B turns 
   }
   console.log('relative spin drift in the 2 s after release:', spinDrift);
   assert.ok(spinDrift.qr < 1e-4, `QR changed the spin by ${spinDrift.qr}`);
+  // The two-level preconditioner keeps a free body's momentum too.
+  assert.ok(spinDrift['qr two-level'] < 1e-4, `QR with two-level changed the spin by ${spinDrift['qr two-level']}`);
   assert.ok(spinDrift['qr-rest-b'] > 0.05, `QR rest-B changed the spin by only ${spinDrift['qr-rest-b']}`);
   // The page still runs and draws with the last method.
   await simulate(0.2);

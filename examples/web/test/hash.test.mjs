@@ -38,21 +38,34 @@ test('the exported API builds and steps a body', () => {
   assert.equal(x.cf_node_count(), 525);
   assert.equal(x.cf_support(), 1);
   assert.ok(x.cf_fixed_count() > 0);
-  assert.equal(x.cf_set_params(2e6, 0.3, 0, 0.002, 10, 1), 0);
+  assert.equal(x.cf_set_params(2e6, 0.3, 0, 0.002, 10, 1, 0), 0);
   const n = x.cf_node_count();
   const z0 = new Float32Array(x.memory.buffer, x.cf_positions_ptr(), 3 * n).slice();
   assert.equal(x.cf_step(100), 100);
   const z1 = new Float32Array(x.memory.buffer, x.cf_positions_ptr(), 3 * n);
   assert.ok(z1[3 * 20 + 2] < z0[3 * 20 + 2] - 0.01, 'the free end sags');
   // A bad parameter is refused with a message.
-  assert.equal(x.cf_set_params(2e6, 0.7, 0, 0.002, 10, 1), 1);
+  assert.equal(x.cf_set_params(2e6, 0.7, 0, 0.002, 10, 1, 0), 1);
   const msg = new TextDecoder().decode(new Uint8Array(x.memory.buffer, x.cf_message_ptr(), x.cf_message_len()));
   assert.match(msg, /Poisson's ratio/);
 });
 
+test('the two-level preconditioner steps the beam; an unknown one is refused', () => {
+  assert.equal(x.cf_load_body(1, 99), 0);
+  assert.equal(x.cf_set_params(2e6, 0.3, 0, 0.002, 10, 1, 2), 0);
+  const n = x.cf_node_count();
+  const z0 = new Float32Array(x.memory.buffer, x.cf_positions_ptr(), 3 * n).slice();
+  assert.equal(x.cf_step(100), 100);
+  const z1 = new Float32Array(x.memory.buffer, x.cf_positions_ptr(), 3 * n);
+  assert.ok(z1[3 * 20 + 2] < z0[3 * 20 + 2] - 0.01, 'the free end sags');
+  assert.equal(x.cf_set_params(2e6, 0.3, 0, 0.002, 10, 1, 7), 1);
+  const msg = new TextDecoder().decode(new Uint8Array(x.memory.buffer, x.cf_message_ptr(), x.cf_message_len()));
+  assert.match(msg, /no preconditioner 7/);
+});
+
 test('time per step in Node (the beam, default settings)', () => {
   assert.equal(x.cf_load_body(1, 99), 0);
-  assert.equal(x.cf_set_params(2e6, 0.3, 0, 0.002, 10, 1), 0);
+  assert.equal(x.cf_set_params(2e6, 0.3, 0, 0.002, 10, 1, 0), 0);
   x.cf_step(50);
   const t0 = performance.now();
   const done = x.cf_step(500);

@@ -59,10 +59,11 @@ function setStatus(text, isError = false) {
 function applyParams() {
   showControls();
   const r = x.cf_set_params(young(), Number($('poisson').value), Number($('method').value),
-    dtMs() / 1000, Number($('cg').value), $('gravity').checked ? 1 : 0);
+    dtMs() / 1000, Number($('cg').value), $('gravity').checked ? 1 : 0,
+    Number($('preconditioner').value));
   if (r !== 0) setStatus(message(), true);
 }
-for (const id of ['young', 'poisson', 'cg', 'dt', 'method', 'gravity']) {
+for (const id of ['young', 'poisson', 'cg', 'dt', 'method', 'gravity', 'preconditioner']) {
   $(id).addEventListener('input', applyParams);
 }
 $('substeps').addEventListener('input', showControls);
