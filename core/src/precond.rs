@@ -65,7 +65,7 @@ pub struct NodeBlock {
 impl NodeBlock {
     /// An unused slot: all zero bits, so that a storage of them in a
     /// `static` lands in `.bss` and costs no flash. (Its aggregate reads 0
-    /// until [`aggregate`] assigns every slot; nothing reads it before.)
+    /// until the aggregation assigns every slot; nothing reads it before.)
     pub const EMPTY: Self = Self {
         inv: [0.0; 6],
         aggregate: 0,
@@ -101,8 +101,8 @@ pub struct Aggregate {
 
 impl Aggregate {
     /// An unused slot: all zero bits, so that a storage of them in a
-    /// `static` lands in `.bss` and costs no flash. [`aggregate`] starts
-    /// every aggregate it uses from [`Aggregate::FRESH`].
+    /// `static` lands in `.bss` and costs no flash. The aggregation starts
+    /// every aggregate it uses from a slot that is not turned.
     pub const EMPTY: Self = Self {
         c0: [0.0; 3],
         s0: [[0.0; 3]; 3],
