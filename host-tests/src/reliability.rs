@@ -251,10 +251,15 @@ pub fn run_case(body: &Body, case: Case, method: Method, max_recovery_steps: u64
         gravity: [0.0; 3],
         // `COROFEM_SWEEP_PRECONDITIONER=two-level` (or `block-jacobi`) runs
         // the sweep with another preconditioner than the default.
-        preconditioner: std::env::var("COROFEM_SWEEP_PRECONDITIONER")
-            .ok()
-            .and_then(|p| corofem::Preconditioner::from_name(&p))
-            .unwrap_or_default(),
+        // A name that is not one is an error, not a silent default.
+        preconditioner: std::env::var("COROFEM_SWEEP_PRECONDITIONER").map_or(
+            corofem::Preconditioner::default(),
+            |p| {
+                corofem::Preconditioner::from_name(&p).unwrap_or_else(|| {
+                    panic!("COROFEM_SWEEP_PRECONDITIONER: no preconditioner {p:?}")
+                })
+            },
+        ),
         ..Settings::default()
     };
     if let Err(e) = scene.set_settings(settings) {

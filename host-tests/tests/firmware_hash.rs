@@ -112,10 +112,11 @@ fn relative(a: &[Vec<[f64; 3]>], reference: &[Vec<[f64; 3]>]) -> f64 {
 
 #[test]
 fn firmware_scene_two_level_is_as_close_to_converged_steps_as_mass() {
-    // Converged steps: two-level CG to a residual of 1e-7 of its start,
-    // which f32 reaches on this 297-unknown system (the mass-preconditioned
-    // solve to the same tolerance agrees to ~5e-7 of the displacement).
+    // Converged steps: CG to a residual of 1e-7 of its start, which f32
+    // reaches on this 297-unknown system, with each preconditioner.
     let exact = trajectory(Preconditioner::TwoLevel, 400, 1.0e-7);
+    let exact_mass = trajectory(Preconditioner::Mass, 2000, 1.0e-7);
+    let reference = relative(&exact_mass, &exact);
     let settings = |p| scene::settings_with(p).cg_iterations;
     let mass = relative(
         &trajectory(Preconditioner::Mass, settings(Preconditioner::Mass), 0.0),
@@ -129,11 +130,19 @@ fn firmware_scene_two_level_is_as_close_to_converged_steps_as_mass() {
         ),
         &exact,
     );
-    println!("firmware scene, error against converged steps: mass {mass:.2e}, two-level {two:.2e}");
+    println!(
+        "firmware scene, error against converged steps: mass {mass:.2e}, two-level {two:.2e} \
+         (the two converged references differ by {reference:.2e})"
+    );
+    // The reference is independent of the preconditioner that reached it
+    // to a tenth of the smaller error compared, so that the comparison
+    // below is decided by the truncated solves, not by the reference.
+    assert!(
+        reference < 0.1 * two.min(mass),
+        "references differ by {reference:.3e}"
+    );
     // The firmware's two-level run (3 iterations) must be no worse than its
     // mass run (5 iterations): it is the cheaper way to the same accuracy
     // only if it is at least as accurate.
     assert!(two <= mass, "two-level {two:.3e} against mass {mass:.3e}");
-    // Both are well inside 1e-4 here: a damped, stiff beam.
-    assert!(mass < 1.0e-4, "mass {mass:.3e}");
 }
