@@ -60,14 +60,14 @@ static float positions[MAX_NODES * 3];
 /* Large enough for MAX_NODES / MAX_TETS with every feature (checked below):
  * per node 96 B of state and scratch, 32 B of grab and load slots and 32 B
  * of preconditioner node block; per tetrahedron at most 136 B; and the
- * two-level preconditioner's aggregates: on the host at most 53 of
- * 176 + 144 * 53 B for 4 096 nodes; none on bare metal, whose library is
- * built without the preconditioner (corofem_scene_bytes gives the exact
- * need). */
+ * two-level preconditioner's aggregates: on the host at most 64 of 176 B
+ * for 4 096 nodes, and the 385 rows of 48 slots of 32 B of their coarse
+ * solve; none on bare metal, whose library is built without the
+ * preconditioner (corofem_scene_bytes gives the exact need). */
 #if defined(COROFEM_BARE_METAL)
 #define AGGREGATE_BYTES 0
 #else
-#define AGGREGATE_BYTES (53 * (176 + 144 * 53))
+#define AGGREGATE_BYTES (64 * 176 + 385 * 48 * 32)
 #endif
 static unsigned char arena[MAX_NODES * 160 + MAX_TETS * 136 + AGGREGATE_BYTES + 512];
 

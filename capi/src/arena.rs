@@ -16,7 +16,7 @@
 //! `ELEMENTS_PER_BLOCK` (8 on targets with vector registers, 1 on a Cortex-M4F).
 //! With the feature `two-level`, the preconditioners' slots follow: a
 //! `NodeBlock` per node, `A = aggregates_for(N, MAX_AGGREGATES)` aggregates
-//! and `coarse_blocks_for(A)` blocks of their coarse factor.
+//! and `coarse_blocks_for(A)` slots of their coarse solve.
 //!
 //! The handle holds a `Scene<SliceStorage<'static>>` whose slices point into
 //! the same buffer, so the buffer must stay where it is, untouched by the
@@ -308,8 +308,10 @@ mod tests {
             + size_of::<ElementBlock>();
         #[cfg(feature = "two-level")]
         {
-            // One aggregate for four nodes, its 1×1 block factor.
-            parts += 4 * size_of::<NodeBlock>() + size_of::<Aggregate>() + size_of::<CoarseBlock>();
+            // One aggregate for four nodes, the slots of its coarse solve.
+            parts += 4 * size_of::<NodeBlock>()
+                + size_of::<Aggregate>()
+                + corofem_core::coarse_blocks_for(1) * size_of::<CoarseBlock>();
         }
         assert!(b >= parts && b < parts + 16, "{b} vs {parts}");
         let n = COROFEM_MAX_NODES + 1;

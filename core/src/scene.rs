@@ -200,7 +200,8 @@ impl<
         const L: usize,
         const P: usize,
         const A: usize,
-    > Scene<ArrayStorage<N, B, G, L, P, A>>
+        const C: usize,
+    > Scene<ArrayStorage<N, B, G, L, P, A, C>>
 {
     /// An empty scene, in `const` context.
     #[must_use]
@@ -219,7 +220,8 @@ impl<
         const L: usize,
         const P: usize,
         const A: usize,
-    > Default for Scene<ArrayStorage<N, B, G, L, P, A>>
+        const C: usize,
+    > Default for Scene<ArrayStorage<N, B, G, L, P, A, C>>
 {
     fn default() -> Self {
         Self::new()
@@ -1074,6 +1076,109 @@ mod tests {
         let held: [u32; 9] = core::array::from_fn(|k| 3 * k as u32);
         scene.fix_nodes(&held).unwrap();
         scene
+    }
+
+    /// A U: a bar along x with two prongs up y, held at its bottom. The
+    /// coordinate bisection cuts it across y (its longest extent), so the
+    /// upper part is both prongs' tops, two pieces joined only through the
+    /// bar; the two-level preconditioner's aggregates are nevertheless each
+    /// one connected piece of mesh, and none is empty.
+    #[cfg(feature = "two-level")]
+    #[test]
+    fn aggregates_are_connected_pieces_of_mesh() {
+        use crate::precond::coarse_blocks_for;
+        use crate::storage::sealed::Sealed;
+        const A: usize = 2;
+        type U = Scene<
+            ArrayStorage<126, { element_blocks(288) }, 0, 0, 126, A, { coarse_blocks_for(A) }>,
+        >;
+        let mesh = BoxMesh {
+            size: [0.6, 0.8, 0.1],
+            cells: [6, 8, 1],
+            tets_per_cell: 6,
+        };
+        let mut nodes = [[0.0f32; 3]; 126];
+        let mut tets = [[0u32; 4]; 288];
+        let (n, t) = mesh.generate(&mut nodes, &mut tets).unwrap();
+        // Keep the bar (y < 0.1) and the prongs (x < 0.1, x > 0.5), then
+        // only the nodes those tetrahedra use.
+        let centre = |t: &[u32; 4]| {
+            let c = t.map(|i| nodes[i as usize]);
+            [0, 1].map(|k| (c[0][k] + c[1][k] + c[2][k] + c[3][k]) / 4.0)
+        };
+        let kept: std::vec::Vec<[u32; 4]> = tets[..t]
+            .iter()
+            .filter(|t| {
+                let [x, y] = centre(t);
+                y < 0.1 || !(0.1..0.5).contains(&x)
+            })
+            .copied()
+            .collect();
+        let mut index = [u32::MAX; 126];
+        let mut used = std::vec::Vec::new();
+        for i in kept.iter().flatten() {
+            if index[*i as usize] == u32::MAX {
+                index[*i as usize] = used.len() as u32;
+                used.push(nodes[*i as usize]);
+            }
+        }
+        let kept: std::vec::Vec<[u32; 4]> =
+            kept.iter().map(|t| t.map(|i| index[i as usize])).collect();
+        assert!(used.len() < n);
+        let mut scene = U::new();
+        scene
+            .build(&used, &kept, &Material::DEFAULT, BuildOptions::default())
+            .unwrap();
+        let held: std::vec::Vec<u32> = (0..used.len() as u32)
+            .filter(|&i| used[i as usize][1] < 1e-6)
+            .collect();
+        scene.fix_nodes(&held).unwrap();
+        scene
+            .set_settings(Settings {
+                preconditioner: Preconditioner::TwoLevel,
+                warm_start: true,
+                cg_iterations: 3,
+                gravity: [-9.81, 0.0, 0.0],
+                ..Settings::default()
+            })
+            .unwrap();
+        scene.step().unwrap();
+        let p = scene.store.parts_mut();
+        let labels: std::vec::Vec<u32> =
+            p.blocks[..used.len()].iter().map(|b| b.aggregate).collect();
+        // Components of each label: union-find over the edges of the
+        // tetrahedra whose two ends share it.
+        let mut parent: std::vec::Vec<usize> = (0..used.len()).collect();
+        fn root(p: &mut [usize], mut i: usize) -> usize {
+            while p[i] != i {
+                i = p[i];
+            }
+            i
+        }
+        for t in &kept {
+            for a in t {
+                for b in t {
+                    let (a, b) = (*a as usize, *b as usize);
+                    if labels[a] == labels[b] && labels[a] != u32::MAX {
+                        let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
+                        parent[ra] = rb;
+                    }
+                }
+            }
+        }
+        for k in 0..A as u32 {
+            let mut roots: std::vec::Vec<usize> = (0..used.len())
+                .filter(|&i| labels[i] == k)
+                .map(|i| root(&mut parent, i))
+                .collect();
+            roots.sort_unstable();
+            roots.dedup();
+            assert_eq!(roots.len(), 1, "aggregate {k}: {} pieces", roots.len());
+        }
+        // Every free node has an aggregate, no fixed one has.
+        for (i, l) in labels.iter().enumerate() {
+            assert_eq!(*l == u32::MAX, held.contains(&(i as u32)), "node {i}");
+        }
     }
 
     /// An empty scene's header is all zero bits, field by field (what puts

@@ -151,7 +151,7 @@ impl<S: Storage> Scene<S> {
             let mut pre = v.pre;
             let n = if cfg.two_level && pre.blocks.len() == nodes.len() {
                 v.hdr.invalidate_coarse();
-                crate::precond::aggregate(nodes, pre.blocks, pre.aggs)
+                crate::precond::aggregate(per_young, elems, n_elems, nodes, pre.blocks, pre.aggs)
             } else {
                 0
             };

@@ -693,7 +693,7 @@ fn prepare(
     let two_level = kind == Preconditioner::TwoLevel;
     // The aggregation first: it moves the node slots around.
     if two_level && !hdr.coarse_ready {
-        hdr.n_aggs = precond::aggregate(nodes, pre.blocks, pre.aggs);
+        hdr.n_aggs = precond::aggregate(per_young, elems, n_elems, nodes, pre.blocks, pre.aggs);
     }
     // The aggregates in use (none for block-Jacobi): what `precond::apply`
     // works with.

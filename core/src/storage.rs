@@ -262,11 +262,13 @@ impl<S: sealed::Sealed + ?Sized> sealed::Sealed for &mut S {
 /// tool (feature `tool`) and `L` nodes with a constant external force
 /// (feature `loads`), 16 bytes each; with the feature `two-level`, `P` node
 /// slots of preconditioner data (32 bytes each: `N` of them, or 0 for the
-/// mass preconditioner only) and up to `A` aggregates for the two-level
-/// preconditioner's coarse space (`176 + 144 A` bytes each, of which the
-/// factor of `n` aggregates uses `n (n + 1) / 2` blocks: 0 for
-/// block-Jacobi at most). `const fn new` lets a whole scene live in a
-/// `static`.
+/// mass preconditioner only), up to `A` aggregates for the two-level
+/// preconditioner's coarse space (176 bytes each) and `C` slots of its
+/// coarse solve (32 bytes each: `n` aggregates use
+/// [`coarse_blocks_for`](crate::coarse_blocks_for)`(n)`, about `4.5 n²`;
+/// 0 for block-Jacobi at most). With constants `A` and `C`, write
+/// `ArrayStorage<N, B, G, L, N, A, { corofem::coarse_blocks_for(A) }>`.
+/// `const fn new` lets a whole scene live in a `static`.
 #[derive(Clone, Debug)]
 pub struct ArrayStorage<
     const N: usize,
@@ -275,6 +277,7 @@ pub struct ArrayStorage<
     const L: usize = 0,
     const P: usize = 0,
     const A: usize = 0,
+    const C: usize = 0,
 > {
     nodes: [Node; N],
     work: [NodeWork; N],
@@ -286,7 +289,7 @@ pub struct ArrayStorage<
     #[cfg(feature = "two-level")]
     aggs: [crate::precond::Aggregate; A],
     #[cfg(feature = "two-level")]
-    coarse: [[crate::precond::CoarseBlock; A]; A],
+    coarse: [crate::precond::CoarseBlock; C],
 }
 
 impl<
@@ -296,7 +299,8 @@ impl<
         const L: usize,
         const P: usize,
         const A: usize,
-    > ArrayStorage<N, B, G, L, P, A>
+        const C: usize,
+    > ArrayStorage<N, B, G, L, P, A, C>
 {
     /// Empty storage.
     #[must_use]
@@ -312,7 +316,7 @@ impl<
             #[cfg(feature = "two-level")]
             aggs: [crate::precond::Aggregate::EMPTY; A],
             #[cfg(feature = "two-level")]
-            coarse: [[crate::precond::CoarseBlock::EMPTY; A]; A],
+            coarse: [crate::precond::CoarseBlock::EMPTY; C],
         }
     }
 }
@@ -324,7 +328,8 @@ impl<
         const L: usize,
         const P: usize,
         const A: usize,
-    > Default for ArrayStorage<N, B, G, L, P, A>
+        const C: usize,
+    > Default for ArrayStorage<N, B, G, L, P, A, C>
 {
     fn default() -> Self {
         Self::new()
@@ -338,11 +343,12 @@ impl<
         const L: usize,
         const P: usize,
         const A: usize,
-    > sealed::Sealed for ArrayStorage<N, B, G, L, P, A>
+        const C: usize,
+    > sealed::Sealed for ArrayStorage<N, B, G, L, P, A, C>
 {
     #[cfg(feature = "two-level")]
     fn preconditioner_capacity(&self) -> (usize, usize, usize) {
-        (P, A, A * A)
+        (P, A, C)
     }
     fn parts(&self) -> (&[Node], &[ElementBlock]) {
         (&self.nodes, &self.elems)
@@ -359,7 +365,7 @@ impl<
             #[cfg(feature = "two-level")]
             aggs: &mut self.aggs,
             #[cfg(feature = "two-level")]
-            coarse: self.coarse.as_flattened_mut(),
+            coarse: &mut self.coarse,
         }
     }
 }

@@ -60,9 +60,14 @@ const P: usize = N;
 const A: usize = 0;
 #[cfg(feature = "two-level")]
 const A: usize = scene::aggregates(CELLS);
+/// Slots of the coarse solve of `A` aggregates.
+#[cfg(not(feature = "two-level"))]
+const C: usize = 0;
+#[cfg(feature = "two-level")]
+const C: usize = corofem::coarse_blocks_for(A);
 
 /// The scene, with exactly the mesh's capacity.
-type FwScene = corofem::Scene<corofem::ArrayStorage<N, B, G, 0, P, A>>;
+type FwScene = corofem::Scene<corofem::ArrayStorage<N, B, G, 0, P, A, C>>;
 
 #[entry]
 fn main() -> ! {
