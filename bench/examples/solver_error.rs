@@ -7,7 +7,8 @@
 //!
 //! Scenes: `beam`, `liver`, `bunny` (the report's), `liver3k`, `bunny3k`.
 //! `RUNS="mass:5 two-level:3"` chooses the preconditioners and CG
-//! iterations to measure.
+//! iterations to measure; an entry `two-level:4:0.2` also sets the CG
+//! tolerance.
 //! Each line gives the preconditioner, CG iterations, mean ms per step (the
 //! first step, which prepares the preconditioner, apart), the CG iterations
 //! that ran per step (the energy certificate may add some), the steps that
@@ -63,28 +64,35 @@ fn main() {
             r.step(&rs);
             traj.push(&r.u);
         }
-        let runs: Vec<(Preconditioner, u32)> = match std::env::var("RUNS") {
+        let runs: Vec<(Preconditioner, u32, f32)> = match std::env::var("RUNS") {
             // `RUNS="mass:5 two-level:3"` chooses the runs.
             Ok(list) => list
                 .split_whitespace()
                 .map(|r| {
-                    let (p, c) = r.split_once(':').expect("RUNS entries are name:iterations");
+                    let mut parts = r.split(':');
+                    let (p, c, t) = (parts.next(), parts.next(), parts.next());
                     (
-                        Preconditioner::from_name(p).expect("a preconditioner name"),
-                        c.parse().expect("an iteration count"),
+                        Preconditioner::from_name(p.unwrap_or_default())
+                            .expect("a preconditioner name"),
+                        c.and_then(|c| c.parse().ok())
+                            .expect("RUNS entries are name:iterations[:tolerance]"),
+                        t.map_or(0.0, |t| t.parse().expect("a tolerance")),
                     )
                 })
                 .collect(),
             Err(_) => vec![
-                (Preconditioner::Mass, 5),
-                (Preconditioner::BlockJacobi, 5),
-                (Preconditioner::TwoLevel, 3),
-                (Preconditioner::TwoLevel, 4),
-                (Preconditioner::TwoLevel, 5),
+                (Preconditioner::Mass, 5, 0.0),
+                (Preconditioner::BlockJacobi, 5, 0.0),
+                (Preconditioner::TwoLevel, 3, 0.0),
+                (Preconditioner::TwoLevel, 4, 0.0),
+                (Preconditioner::TwoLevel, 5, 0.0),
             ],
         };
-        for (pre, cg) in runs {
+        for (pre, cg, tol) in runs {
             let mut sc = d.core_with(Method::Qr, dt as f32, cg, pre);
+            let mut settings = *sc.settings();
+            settings.cg_tolerance = tol;
+            sc.set_settings(settings).expect("a valid tolerance");
             let (mut e, mut secs) = (0.0f64, 0.0f64);
             let mut diverged = false;
             // The first step prepares the preconditioner: timed apart.
@@ -116,7 +124,7 @@ fn main() {
                 );
             }
             println!(
-                "{name:8} {:5} nodes {:6} tets  {:13} cg {cg:2}  {:.4} ms/step (first {:.3} ms)  {:.2} it/step  {galerkin:3} galerkin  error {}{}",
+                "{name:8} {:5} nodes {:6} tets  {:13} cg {cg:2} tol {tol:4}  {:.4} ms/step (first {:.3} ms)  {:.2} it/step  {galerkin:3} galerkin  error {}{}",
                 d.nodes.len(),
                 d.tets.len(),
                 pre.name(),

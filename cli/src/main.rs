@@ -61,8 +61,8 @@ The scene file (TOML) and the result file (JSON) are described key by key in
 docs/scene-format.md. Among the scene keys:
   [mesh]   reorient = true          swap nodes of negatively oriented tets instead of
                                     rejecting the mesh (default false)
-  [solver] warm_start = true        start CG from the previous step's solution, scaled to the
-                                    multiple that starts the solve best (default false)
+  [solver] warm_start = true        start CG from the previous step's solution (no extra
+                                    cost; steps with ground contacts start cold; default false)
   [solver] preconditioner = \"mass\"  what preconditions CG: \"mass\" (the lumped mass, the
                                     paper's CG; the default), \"block-jacobi\" (3x3 node blocks
                                     of the system matrix) or \"two-level\" (node blocks plus

@@ -26,7 +26,8 @@ use crate::storage::NodeWork;
 pub(crate) struct CgOutcome {
     /// Iterations run.
     pub(crate) iterations: u32,
-    /// `sqrt(rᵀz / r₀ᵀz₀)`: the final residual relative to the initial one.
+    /// The final residual relative to the initial one, in the norm the
+    /// solve stops on (`solve`).
     pub(crate) residual: f32,
     /// The residual or an inner product overflowed: the system itself is
     /// beyond f32 (absurd loads), so no solution can be trusted.
@@ -42,23 +43,23 @@ pub(crate) struct CgOutcome {
 const FLOOR: f32 = f32::EPSILON * f32::EPSILON;
 
 /// Runs at most `max_iterations` CG iterations from `work.x` with `work.r`
-/// set to `b − A x`, or, with `from_guess`, to `b` (the solve then subtracts
-/// `A x` itself, with the same `apply`). `project(node, v)` applies the
-/// filter `S` of a node; `apply(work)` finds every `work.q` zero, must set it
-/// to `A work.d`, and returns `dᵀq = Σ dᵢ·qᵢ` summed in node order.
-///
-/// With `scale_guess`, a guess `x₀` is first replaced by `γ x₀` with
-/// `γ = bᵀx₀ / x₀ᵀAx₀`, the multiple that minimises the energy norm of the
-/// error `½ xᵀAx − bᵀx` along `x₀` (≤ 0, the value of no guess): a guess
-/// never starts the solve worse than zero, and CG only lowers that norm.
-/// (Not for guesses that prescribe constrained components.)
+/// set to `b − A x`. `project(node, v)` applies the filter `S` of a node;
+/// `apply(work)` finds every `work.q` zero, must set it to `A work.d`, and
+/// returns `dᵀq = Σ dᵢ·qᵢ` summed in node order.
 ///
 /// The preconditioner is `project(i, inv_pᵢ rᵢ)` node by node, fused into
 /// the update loop, or with `whole`, a pass that sets every `q` to the
 /// preconditioned residual `z` and returns `rᵀz` summed in node order.
 ///
-/// The solve stops once `max_iterations` have run or the residual is below
-/// `tolerance`, but only where `certify(work)` accepts the iterate; until
+/// The residual is measured in the preconditioner's norm `sqrt(rᵀz)`, or,
+/// with `whole` and `scalar_norm`, in the norm `sqrt(rᵀ S P₀⁻¹ S r)` of the
+/// scalar preconditioner `P₀⁻¹ = inv_p` (for the step, the lumped mass: the
+/// norm the mass-preconditioned solve measures). That norm is a sum the
+/// update loop makes on the way, so a solve that stops there never applies
+/// `whole` to its last residual: one application per solve fewer.
+///
+/// The solve stops once `max_iterations` have run or the relative residual
+/// is below `tolerance`, but only where `certify(work)` accepts the iterate; until
 /// then it goes on, to at most `cap` iterations (`cap ≥ max_iterations`).
 /// The step's certificate is that the truncation adds no energy
 /// (`step.rs`); a solve that needs no such check passes `|_| true`, and
@@ -76,49 +77,29 @@ pub(crate) fn solve(
     max_iterations: u32,
     cap: u32,
     tolerance: f32,
-    from_guess: bool,
-    scale_guess: bool,
+    scalar_norm: bool,
     project: impl Fn(usize, Vec3) -> Vec3,
     mut whole: Option<impl FnMut(&mut [NodeWork]) -> f32>,
     mut apply: impl FnMut(&mut [NodeWork]) -> f32,
     mut certify: impl FnMut(&[NodeWork]) -> bool,
 ) -> CgOutcome {
-    if from_guess {
-        // r = b − A x₀.
-        for w in work.iter_mut() {
-            w.d = w.x;
-            w.q = [0.0; 3];
-        }
-        let xax = apply(work);
-        let mut gamma = 1.0f32;
-        if scale_guess {
-            let bx = work.iter().fold(0.0f32, |s, w| s + dot(w.r, w.x));
-            gamma = bx / xax;
-            if !(xax > 0.0 && gamma.is_finite()) {
-                gamma = 0.0;
-            }
-        }
-        if gamma == 0.0 {
-            // No multiple of the guess helps (or it overflowed, a leftover
-            // of a refused step): start from zero, without touching r.
-            for w in work.iter_mut() {
-                w.x = [0.0; 3];
-            }
-        } else {
-            for w in work.iter_mut() {
-                if scale_guess {
-                    w.x = scale(w.x, gamma);
-                }
-                w.r = axpy(w.r, -gamma, w.q);
-            }
-        }
-    }
+    // `rz`: `rᵀz` of the residual the direction `d` was made from. `rm`:
+    // the squared norm the stopping rules and the statistic measure, `rᵀz`
+    // itself, or with `scalar_norm` and `whole`, `rᵀ S P₀⁻¹ S r` of the
+    // scalar preconditioner `P₀⁻¹ = inv_p`.
     let mut rz = 0.0f32;
+    let mut rm = 0.0f32;
     if let Some(pre) = whole.as_mut() {
         rz = pre(work);
-        for w in work.iter_mut() {
+        for (i, w) in work.iter_mut().enumerate() {
+            if scalar_norm {
+                rm += dot(w.r, project(i, scale(w.r, w.inv_p)));
+            }
             w.d = w.q;
             w.q = [0.0; 3];
+        }
+        if !scalar_norm {
+            rm = rz;
         }
     } else {
         for (i, w) in work.iter_mut().enumerate() {
@@ -127,34 +108,55 @@ pub(crate) fn solve(
             w.q = [0.0; 3];
             rz += dot(w.r, z);
         }
+        rm = rz;
     }
-    let rz0 = rz;
-    if !rz0.is_finite() {
+    let rm0 = rm;
+    if !(rz.is_finite() && rm0.is_finite()) {
         return CgOutcome {
             overflow: true,
             ..CgOutcome::default()
         };
     }
-    if !(rz0 > 0.0) {
+    if !(rz > 0.0 && rm0 > 0.0) {
         // A zero preconditioned residual: the guess solves the system.
         return CgOutcome {
             certified: true,
             ..CgOutcome::default()
         };
     }
-    let floor = (FLOOR * rz0).max(f32::MIN_POSITIVE);
-    let stop = (tolerance * tolerance * rz0).max(floor);
+    let floor = (FLOOR * rm0).max(f32::MIN_POSITIVE);
+    let stop = (tolerance * tolerance * rm0).max(floor);
     let mut iterations = 0;
     let mut certified = false;
+    // With `whole`: `r` has changed since `d` was made, and the next
+    // direction waits for `P⁻¹ r` (`next`: its `rᵀz`, when already known).
+    // Made only once the solve goes on, so that a solve that stops needs
+    // no preconditioner for its last residual.
+    let mut stale = false;
+    let mut next = 0.0f32;
     loop {
-        if iterations >= max_iterations || rz <= stop {
+        if iterations >= max_iterations || rm <= stop {
             if certify(work) {
                 certified = true;
                 break;
             }
-            if iterations >= cap || rz <= floor {
+            if iterations >= cap || rm <= floor {
                 break;
             }
+        }
+        if stale {
+            if let Some(pre) = whole.as_mut() {
+                if scalar_norm {
+                    next = pre(work);
+                }
+                let beta = next / rz;
+                rz = next;
+                for w in work.iter_mut() {
+                    w.d = axpy(w.q, beta, w.d);
+                    w.q = [0.0; 3];
+                }
+            }
+            stale = false;
         }
         let dq = apply(work);
         if !dq.is_finite() {
@@ -169,25 +171,37 @@ pub(crate) fn solve(
             break;
         }
         let alpha = rz / dq;
-        let mut rz_new = 0.0f32;
+        iterations += 1;
         if let Some(pre) = whole.as_mut() {
-            for w in work.iter_mut() {
-                w.x = axpy(w.x, alpha, w.d);
-                w.r = axpy(w.r, -alpha, w.q);
-            }
-            rz_new = pre(work);
-        } else {
+            let mut sum = 0.0f32;
             for (i, w) in work.iter_mut().enumerate() {
                 w.x = axpy(w.x, alpha, w.d);
                 w.r = axpy(w.r, -alpha, w.q);
-                let z = project(i, scale(w.r, w.inv_p));
-                w.q = z;
-                rz_new += dot(w.r, z);
+                if scalar_norm {
+                    sum += dot(w.r, project(i, scale(w.r, w.inv_p)));
+                    w.q = [0.0; 3];
+                }
             }
+            if scalar_norm {
+                rm = sum;
+            } else {
+                next = pre(work);
+                rm = next;
+            }
+            stale = true;
+            continue;
         }
-        iterations += 1;
+        let mut rz_new = 0.0f32;
+        for (i, w) in work.iter_mut().enumerate() {
+            w.x = axpy(w.x, alpha, w.d);
+            w.r = axpy(w.r, -alpha, w.q);
+            let z = project(i, scale(w.r, w.inv_p));
+            w.q = z;
+            rz_new += dot(w.r, z);
+        }
         let beta = rz_new / rz;
         rz = rz_new;
+        rm = rz;
         for w in work.iter_mut() {
             w.d = axpy(w.q, beta, w.d);
             w.q = [0.0; 3];
@@ -197,8 +211,8 @@ pub(crate) fn solve(
         iterations,
         // Square roots first and a clamp: the ratio of a grown residual to a tiny
         // initial one can exceed f32 (found by fuzzing); the statistic stays finite.
-        residual: (sqrt(rz.max(0.0)) / sqrt(rz0)).min(f32::MAX),
-        overflow: !rz.is_finite(),
+        residual: (sqrt(rm.max(0.0)) / sqrt(rm0)).min(f32::MAX),
+        overflow: !(rm.is_finite() && rz.is_finite()),
         certified,
     }
 }

@@ -11,7 +11,7 @@
 //! block (a Cortex-M4F), and for a lane whose batched kernel needs a
 //! fallback (a degenerate QR frame, an irregular polar rotation search).
 
-use crate::backend::{Backend, NodeU, NodeV, NodeX0, Portable, Row, WorkD, WorkQ, WorkR};
+use crate::backend::{Backend, NodeU, NodeX0, Portable, Row, WorkD, WorkQ, WorkR};
 #[cfg(any(feature = "qr", feature = "qr-rest-b"))]
 use crate::element::qr;
 use crate::element::{self, hform, lane3, Batch, ElementBlock, ElementForces, Method};
@@ -30,34 +30,49 @@ pub(crate) struct PassTotals {
 }
 
 /// Where a force pass puts each element's contributions, element after
-/// element in element order.
+/// element in element order, and where it reads the input of its stiffness
+/// product.
 pub(crate) trait Sink {
     /// Adds node `i`'s elastic force `f` (N).
     fn add_force(&mut self, i: usize, f: Vec3);
-    /// Adds node `i`'s stiffness product `kv` (`−K v`, N).
+    /// Adds node `i`'s stiffness product `kv` (`−K w`, N).
     fn add_kv(&mut self, i: usize, kv: Vec3);
+    /// Node `i`'s input `w` of the product `−K w` (zero out of range).
+    fn kv_input(&self, i: usize) -> Vec3;
+
+    /// [`Self::kv_input`] of a block's four corners, in lanes
+    /// `[corner][component]`.
+    #[inline(always)]
+    fn kv_inputs<B: Backend>(&self, b: B, ids: &[[u16; LANES]; 4]) -> [[Batch; 3]; 4] {
+        let _ = b;
+        let mut out = [[Batch::splat(0.0); 3]; 4];
+        for (corner, lanes) in out.iter_mut().zip(ids) {
+            for (j, &i) in lanes.iter().enumerate() {
+                Batch::put(corner, j, self.kv_input(usize::from(i)));
+            }
+        }
+        out
+    }
 
     /// Adds a whole block's contributions: the forces `f` on `b, c, d` of
-    /// its lanes (node `a` getting `−(f_b + f_c + f_d)`), then,
-    /// with `WITH_KV`, the `−K v` that `kv()` returns, called once the
-    /// forces are in (so that its inputs are not kept through them). Each
-    /// kind of sum in element order. Returns `false`, having done nothing,
-    /// if the block's node indices are out of range.
+    /// its lanes (node `a` getting `−(f_b + f_c + f_d)`), then, with
+    /// `WITH_KV`, the `−K w` that `kv(w)` returns for the corners' inputs
+    /// `w`. Each kind of sum in element order. Returns `false`, having done
+    /// nothing, if the block's node indices are out of range.
     #[inline(always)]
     fn add_block<B: Backend, const WITH_KV: bool>(
         &mut self,
         b: B,
         ids: &[[u16; LANES]; 4],
         f: &[[Batch; 3]; 3],
-        kv: impl FnOnce() -> [[Batch; 3]; 3],
+        kv: impl FnOnce(&[[Batch; 3]; 4]) -> [[Batch; 3]; 3],
     ) -> bool {
-        let _ = b;
         let node = |j: usize| ids.map(|c| c.get(j).copied().unwrap_or(0));
         for j in 0..LANES {
             scatter(node(j), &lane3(f, j), |i, v| self.add_force(i, v));
         }
         if WITH_KV {
-            let kv = kv();
+            let kv = kv(&self.kv_inputs(b, ids));
             for j in 0..LANES {
                 scatter(node(j), &lane3(&kv, j), |i, v| self.add_kv(i, v));
             }
@@ -66,8 +81,9 @@ pub(crate) trait Sink {
     }
 }
 
-/// The step's sink: `r += f`, `q += kv` of each node; a block's sums go
-/// straight into the node work with the backend's moves.
+/// The step's sink: `r += f`, `q += −K d` of each node, the product's
+/// input `d`; a block's sums go straight into the node work with the
+/// backend's moves.
 pub(crate) struct IntoWork<'a>(pub(crate) &'a mut [NodeWork]);
 
 impl Sink for IntoWork<'_> {
@@ -84,30 +100,59 @@ impl Sink for IntoWork<'_> {
         }
     }
     #[inline(always)]
+    fn kv_input(&self, i: usize) -> Vec3 {
+        self.0.get(i).map_or([0.0; 3], |w| w.d)
+    }
+    #[inline(always)]
+    fn kv_inputs<B: Backend>(&self, b: B, ids: &[[u16; LANES]; 4]) -> [[Batch; 3]; 4] {
+        match b.corners::<NodeWork>(ids, self.0.len()) {
+            Some(c) => inputs(b, self.0, &c),
+            None => [[Batch::splat(0.0); 3]; 4],
+        }
+    }
+    #[inline(always)]
     fn add_block<B: Backend, const WITH_KV: bool>(
         &mut self,
         b: B,
         ids: &[[u16; LANES]; 4],
         f: &[[Batch; 3]; 3],
-        kv: impl FnOnce() -> [[Batch; 3]; 3],
+        kv: impl FnOnce(&[[Batch; 3]; 4]) -> [[Batch; 3]; 3],
     ) -> bool {
         let Some(c) = b.corners::<NodeWork>(ids, self.0.len()) else {
             return false;
         };
+        // The inputs before the forces go in: a row of `d` overlaps the
+        // rows of `r` that the forces store, and a load that overlaps a
+        // pending store only in part waits until the store has reached the
+        // cache.
+        let d = if WITH_KV {
+            Some(inputs(b, self.0, &c))
+        } else {
+            None
+        };
         add_to_nodes::<B, WorkR>(b, self.0, &c, f);
-        if WITH_KV {
-            add_to_nodes::<B, WorkQ>(b, self.0, &c, &kv());
+        if let Some(d) = d {
+            add_to_nodes::<B, WorkQ>(b, self.0, &c, &kv(&d));
         }
         true
     }
 }
 
-/// Any other sink: functions `add_force(i, f)` and `add_kv(i, kv)`.
+/// The product inputs `d` of the four corners of the block `c`, in lanes.
+#[inline(always)]
+fn inputs<B: Backend>(b: B, work: &[NodeWork], c: &B::Corners<NodeWork>) -> [[Batch; 3]; 4] {
+    let mut d = gather4::<B, WorkD>(b, work, c);
+    b.fence(&mut d);
+    d
+}
+
+/// Any other sink: functions `add_force(i, f)` and `add_kv(i, kv)`, and
+/// the product's inputs by node.
 #[cfg(any(feature = "statics", feature = "diagnostics", test))]
-pub(crate) struct Each<F, K>(pub(crate) F, pub(crate) K);
+pub(crate) struct Each<'a, F, K>(pub(crate) F, pub(crate) K, pub(crate) &'a [Vec3]);
 
 #[cfg(any(feature = "statics", feature = "diagnostics", test))]
-impl<F: FnMut(usize, Vec3), K: FnMut(usize, Vec3)> Sink for Each<F, K> {
+impl<F: FnMut(usize, Vec3), K: FnMut(usize, Vec3)> Sink for Each<'_, F, K> {
     #[inline(always)]
     fn add_force(&mut self, i: usize, f: Vec3) {
         (self.0)(i, f);
@@ -115,6 +160,10 @@ impl<F: FnMut(usize, Vec3), K: FnMut(usize, Vec3)> Sink for Each<F, K> {
     #[inline(always)]
     fn add_kv(&mut self, i: usize, kv: Vec3) {
         (self.1)(i, kv);
+    }
+    #[inline(always)]
+    fn kv_input(&self, i: usize) -> Vec3 {
+        self.2.get(i).copied().unwrap_or([0.0; 3])
     }
 }
 
@@ -185,14 +234,6 @@ fn gather4<B: Backend, R: Row>(
     ]
 }
 
-/// The velocities of the four corners of the block `c`, in lanes.
-#[inline(always)]
-fn velocities<B: Backend>(b: B, nodes: &[Node], c: &B::Corners<Node>) -> [[Batch; 3]; 4] {
-    let mut vel = gather4::<B, NodeV>(b, nodes, c);
-    b.fence(&mut vel);
-    vel
-}
-
 /// Whole blocks of `count` elements, and the lanes used in the block after
 /// them (0 when `count` is a multiple of [`LANES`]; always 0 with one lane,
 /// so a Cortex-M4F's loop has no partial block to test for).
@@ -202,8 +243,8 @@ fn split(count: usize) -> (usize, usize) {
 }
 
 /// Elastic forces of the first `count` elements (and, with `WITH_KV`, the
-/// stiffness product `−K v` of the velocities, fused into the same pass since
-/// it needs the gradients just computed). With `COMMIT`, each element keeps
+/// stiffness product `−K w` of the sink's inputs `w`, fused into the same
+/// pass since it needs the gradients just computed). With `COMMIT`, each element keeps
 /// its new world gradients (and polar rotation); without, elements are left
 /// untouched.
 ///
@@ -257,7 +298,7 @@ pub(crate) fn forces_outside_step(
     add_to: &mut dyn FnMut(usize, Vec3),
 ) -> PassTotals {
     let b = crate::backend::BASELINE;
-    let sink = Each(add_to, |_, _| {});
+    let sink = Each(add_to, |_, _| {}, &[]);
     if commit {
         forces::<_, false, true>(b, method, per_young, nodes, elems, count, sink)
     } else {
@@ -466,15 +507,14 @@ impl<B: Backend, S: Sink> ForcePass<'_, B, S> {
             };
             let rest = diffs(&[n[0].x0, n[1].x0, n[2].x0, n[3].x0]);
             let du = diffs(&[n[0].u, n[1].u, n[2].u, n[3].u]);
-            let vel = || [n[0].v, n[1].v, n[2].v, n[3].v];
-            self.alone::<WITH_KV, COMMIT>(method, blk, j, &rest, &du, vel);
+            self.alone::<WITH_KV, COMMIT>(method, blk, j, &rest, &du);
         }
     }
 
-    /// Element `j` of a block alone with `method`, from its rest edges,
-    /// displacement differences and node velocities (`vel`, called only
-    /// with `WITH_KV`, once the forces are out: loaded where they are used,
-    /// they are not kept in registers through the force kernel).
+    /// Element `j` of a block alone with `method`, from its rest edges and
+    /// displacement differences; with `WITH_KV`, the product's inputs are
+    /// read once the forces are out (loaded where they are used, they are
+    /// not kept in registers through the force kernel).
     #[inline(always)]
     fn alone<const WITH_KV: bool, const COMMIT: bool>(
         &mut self,
@@ -483,7 +523,6 @@ impl<B: Backend, S: Sink> ForcePass<'_, B, S> {
         j: usize,
         rest: &[Vec3; 3],
         du: &[Vec3; 3],
-        vel: impl FnOnce() -> [Vec3; 4],
     ) {
         let mut el = blk.get(j);
         let out = element::forces(method, &mut el, self.per_young, rest, du);
@@ -494,7 +533,8 @@ impl<B: Backend, S: Sink> ForcePass<'_, B, S> {
         // spilled).
         self.emit_forces(&out, el.nodes);
         if WITH_KV {
-            let kv = hform::stiffness_product(&vel(), &out.grad, el.lame(self.per_young));
+            let input = el.nodes.map(|i| self.sink.kv_input(usize::from(i)));
+            let kv = hform::stiffness_product(&input, &out.grad, el.lame(self.per_young));
             self.emit_kv(el.nodes, &kv);
         }
         if COMMIT {
@@ -505,8 +545,8 @@ impl<B: Backend, S: Sink> ForcePass<'_, B, S> {
     /// A whole block of elements, all at once with kernel `K`.
     ///
     /// Runs the kernel on every lane ([`Self::kernel`]) and hands the
-    /// block's results to the sink, the velocities gathered only then, for
-    /// `−K v`. Lanes are independent and see the same operations, so the
+    /// block's results to the sink, which gathers the product's inputs
+    /// for `−K w`. Lanes are independent and see the same operations, so the
     /// bits are those of one element at a time. If the kernel marks a lane
     /// irregular, [`Self::lane_by_lane`] does the block instead.
     #[inline(always)]
@@ -514,8 +554,8 @@ impl<B: Backend, S: Sink> ForcePass<'_, B, S> {
         &mut self,
         blk: &mut ElementBlock,
     ) {
-        let (b, nodes) = (self.b, self.nodes);
-        let Some((at, lame, out)) = self.kernel::<K>(blk) else {
+        let b = self.b;
+        let Some((lame, out)) = self.kernel::<K>(blk) else {
             // A node index out of range (impossible after `build`): the
             // elements that have all their nodes, alone.
             self.one_by_one::<WITH_KV, COMMIT>(self.method, blk, 0..LANES);
@@ -530,7 +570,7 @@ impl<B: Backend, S: Sink> ForcePass<'_, B, S> {
                 &blk.nodes,
                 &out.k.f,
                 #[inline(always)]
-                || hform::stiffness_product(&velocities(b, nodes, &at), &out.k.grad, lame),
+                |input: &[[Batch; 3]; 4]| hform::stiffness_product(input, &out.k.grad, lame),
             )
         {
             self.lane_by_lane::<K, WITH_KV, COMMIT>(blk);
@@ -552,19 +592,15 @@ impl<B: Backend, S: Sink> ForcePass<'_, B, S> {
         }
     }
 
-    /// Kernel `K` on every lane of a whole block: the block's node corners,
-    /// its `[λ', μ']` and the kernel's results; `None` if a node index is
-    /// out of range.
+    /// Kernel `K` on every lane of a whole block: the block's `[λ', μ']`
+    /// and the kernel's results; `None` if a node index is out of range.
     ///
     /// The edges are gathered corner by corner, so that only they stay live
     /// (gathering the rest positions, displacements and velocities of all
     /// four corners first kept 36 vectors live, and the pass was bound by
     /// its stores to the stack).
     #[inline(always)]
-    fn kernel<K: LaneKernel>(
-        &self,
-        blk: &ElementBlock,
-    ) -> Option<(B::Corners<Node>, [Batch; 2], LaneForces)> {
+    fn kernel<K: LaneKernel>(&self, blk: &ElementBlock) -> Option<([Batch; 2], LaneForces)> {
         let (b, nodes) = (self.b, self.nodes);
         let at = b.corners::<Node>(&blk.nodes, nodes.len())?;
         let (_rest, _du, cur) = gather_edges(b, nodes, &at);
@@ -579,7 +615,7 @@ impl<B: Backend, S: Sink> ForcePass<'_, B, S> {
         };
         let lame = crate::material::lame(blk.stiffness, self.per_young);
         let out = K::run(&edges, blk, lame);
-        Some((at, lame, out))
+        Some((lame, out))
     }
 
     /// A whole block with kernel `K`, finished lane by lane in element
@@ -590,13 +626,13 @@ impl<B: Backend, S: Sink> ForcePass<'_, B, S> {
         &mut self,
         blk: &mut ElementBlock,
     ) {
-        let (b, nodes) = (self.b, self.nodes);
-        let Some((at, lame, out)) = self.kernel::<K>(blk) else {
+        let b = self.b;
+        let Some((lame, out)) = self.kernel::<K>(blk) else {
             self.one_by_one::<WITH_KV, COMMIT>(self.method, blk, 0..LANES);
             return;
         };
         let kv = if WITH_KV {
-            hform::stiffness_product(&velocities(b, nodes, &at), &out.k.grad, lame)
+            hform::stiffness_product(&self.sink.kv_inputs(b, &blk.nodes), &out.k.grad, lame)
         } else {
             [[Batch::splat(0.0); 3]; 3]
         };
@@ -1058,14 +1094,18 @@ mod tests {
         // kept, where most polar lanes take the regular path.
         let mut totals = PassTotals::default();
         let mut work = [NodeWork::EMPTY; 12];
+        let vel = nodes.map(|n| n.v);
         for _ in 0..2 {
+            for (w, v) in work.iter_mut().zip(vel) {
+                w.d = v;
+            }
             totals = if into_work {
                 let sink = IntoWork(&mut work);
                 forces::<B, true, true>(b, method, PER_YOUNG, nodes, &mut blocks, 20, sink)
             } else {
                 let add_f = |i: usize, a: Vec3| f[i] = add(f[i], a);
                 let add_kv = |i: usize, v: Vec3| kv[i] = add(kv[i], v);
-                let sink = Each(add_f, add_kv);
+                let sink = Each(add_f, add_kv, &vel);
                 forces::<B, true, true>(b, method, PER_YOUNG, nodes, &mut blocks, 20, sink)
             };
         }

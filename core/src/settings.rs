@@ -86,18 +86,26 @@ pub struct Settings {
     /// solution and the current velocity, which has one (three products with
     /// the system matrix). [`StepStats::cg_iterations`] reports what ran.
     pub cg_iterations: u32,
-    /// Relative residual (preconditioned norm) at which CG stops early
-    /// (`≥ 0`; 0 = no early stop, except at the f32 round-off floor `ε²` of
-    /// `rᵀz`, below which iterating only makes slow subnormal numbers). Default 0.
+    /// Relative residual at which CG stops early (`≥ 0`; 0 = no early stop,
+    /// except at the f32 round-off floor, a squared norm of `ε²` of the
+    /// initial one, below which iterating only makes slow subnormal
+    /// numbers). Default 0. Measured for every preconditioner in the
+    /// lumped-mass norm `sqrt(rᵀ M'⁻¹ r)` over the free directions
+    /// (`M' = (1 + h α_M) M`, plus the tool's spring on grabbed nodes): the
+    /// residual force as the velocity error it would make, the norm the
+    /// `Mass` preconditioner works in; [`StepStats::cg_residual`] reports it.
     pub cg_tolerance: f32,
     /// Mass-proportional Rayleigh damping `α_M` (1/s, `≥ 0`). Default 0.
     pub rayleigh_mass: f32,
     /// Stiffness-proportional Rayleigh damping `α_K` (s, `≥ 0`). Default 0.
     pub rayleigh_stiffness: f32,
     /// Start CG from the previous step's velocity change (with its net linear
-    /// and angular momentum removed when nothing holds the body), scaled to
-    /// the multiple that minimises the solve's energy norm of the error, so
-    /// that a guess never starts the solve worse than no guess. Default off.
+    /// and angular momentum removed when nothing holds the body). The guess
+    /// costs no extra pass over the elements: the force pass's stiffness
+    /// product takes the velocity plus the guess. Steps with ground
+    /// contacts start cold. A guess cannot add energy: the energy
+    /// certificate of [`Settings::cg_iterations`] holds for every start.
+    /// Default off.
     pub warm_start: bool,
     /// What preconditions CG. Default [`Preconditioner::DEFAULT`].
     pub preconditioner: Preconditioner,
@@ -195,7 +203,8 @@ pub struct StepStats {
     /// Whether the step ended with the Galerkin step of a solve that had no
     /// energy certificate at the iteration cap.
     pub galerkin: bool,
-    /// Final CG residual relative to the initial one (preconditioned norm).
+    /// Final CG residual relative to the initial one, in the lumped-mass
+    /// norm of [`Settings::cg_tolerance`].
     pub cg_residual: f32,
     /// Elements with negative current volume, at the start of the step.
     pub inverted: u32,

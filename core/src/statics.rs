@@ -278,7 +278,6 @@ impl<S: Storage> Scene<S> {
                     cfg.cg_iterations,
                     cfg.cg_tolerance,
                     false,
-                    false,
                     |_, z| z,
                     whole,
                     apply,

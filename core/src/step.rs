@@ -31,9 +31,9 @@ use crate::storage::Entries;
 use crate::storage::GRABBED;
 #[cfg(feature = "loads")]
 use crate::storage::LOADED;
+use crate::storage::{Node, NodeWork, FIXED};
 #[cfg(feature = "ground")]
-use crate::storage::RELEASED;
-use crate::storage::{Node, NodeWork, CONTACT, FIXED};
+use crate::storage::{CONTACT, RELEASED};
 #[cfg(feature = "two-level")]
 use crate::Preconditioner;
 use crate::StepError;
@@ -101,11 +101,115 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
     let len = nodes.len().min(work.len());
     let (nodes, work) = (&mut nodes[..len], &mut work[..len]);
 
-    // Element pass: elastic forces into r, −K v into q.
-    for w in work.iter_mut() {
+    // Initial guess. CG truncated after a few iterations scales each part of
+    // the right-hand side differently, including the uniform part `h M g`,
+    // so a falling body would feel a fraction of gravity. A uniform velocity
+    // change is an exact eigenvector of A (K of a translation is zero, bit for
+    // bit, since every element sees equal node values), so when no node is
+    // fixed we start from the free-fall change `c = h g / (1 + h α_M)` and CG
+    // only has the rest to do. Fixed bodies start from zero (or the warm start).
+    //
+    // The guess is made before the element pass, whose stiffness product
+    // then takes `v + x₀`: `b − A x₀ = h f − h (h + α_K) K (v + x₀) − p x₀`
+    // (`p` the node's mass term) costs no product of its own.
+    let any_fixed = hdr.any_fixed;
+    let fall = if any_fixed {
+        [0.0; 3]
+    } else {
+        scale(s.gravity, h / mass_coef)
+    };
+    #[allow(unused_mut)] // only the ground counts held nodes
+    let mut held = 0u32;
+    #[allow(unused_mut)] // only the ground and the tool set it
+    let mut isolated = !any_fixed;
+    // The grabbed nodes hold the body (a grab lists at least one node).
+    #[cfg(feature = "tool")]
+    if tool.active() {
+        isolated = false;
+    }
+    // The ground's held nodes: a pass of its own, before the guess, which
+    // depends on whether any node is held.
+    #[cfg(feature = "ground")]
+    if let Some(g) = ground {
+        for n in nodes.iter_mut() {
+            n.flags &= !CONTACT;
+            if n.flags & FIXED != 0 {
+                continue;
+            }
+            let dist = g.distance(n.position());
+            if n.flags & RELEASED == 0 && dist <= 0.0 && dot(g.normal, n.v) <= 0.0 {
+                n.flags |= CONTACT;
+                held += 1;
+                isolated = false;
+            }
+        }
+    }
+    // A warm guess with held normals can start the solve worse than no
+    // guess (the normals are prescribed, and a truncated solve from there
+    // cannot undo them): steps with ground contacts start cold.
+    let warm = s.warm_start && held == 0;
+    // An isolated body's rigid motions: translations, which `K` annihilates
+    // bit for bit in every method, and, for `Qr`, whose `B` is that of the
+    // current shape, rotations about the current shape too. The solve keeps
+    // the exact step's response to these modes (the momentum), whatever the
+    // preconditioner and however it is truncated: the mass preconditioner
+    // does by itself; the others are made exact on them (`Rigid::finish`),
+    // and only they need the body's inertia at every step.
+    let rotations = s.method == crate::Method::Qr;
+    if warm && isolated {
+        if let Some(body) = Rigid::new(nodes, true) {
+            // The warm start keeps no momentum of its own; the free fall
+            // adds the exact impulse of gravity below.
+            let guess = body.fit(nodes, work, |n, w| scale(w.x, n.mass));
+            for (n, w) in nodes.iter().zip(work.iter_mut()) {
+                w.x = body.less_rigid(n, w.x, guess);
+            }
+        }
+    }
+    // A uniform guess needs no product at all (`K c = 0`).
+    let uniform = isolated && !warm;
+    // Whether the product takes `v + x₀`: for every guess but the uniform
+    // one and the zero one of a fixed body without contacts.
+    let fused = warm || (!isolated && (!any_fixed || held > 0));
+    // Add the free fall to the guess and prescribe the held normals; the
+    // product's input into `d`.
+    let keep = warm && !isolated;
+    // The bits of every guess component, sign bit shifted out, or-ed: zero
+    // exactly when every component is ±0 (NaN counts as non-zero, as with
+    // `!=`). Integer ors: on a Cortex-M4F, 15 instructions per node fewer
+    // than three float comparisons.
+    let mut nonzero = 0u32;
+    for (n, w) in nodes.iter_mut().zip(work.iter_mut()) {
         w.r = [0.0; 3];
         w.q = [0.0; 3];
+        // Without a ground no node is held (flags left by an earlier ground).
+        #[cfg(feature = "ground")]
+        if ground.is_none() {
+            n.flags &= !CONTACT;
+        }
+        if n.flags & FIXED != 0 {
+            w.x = [0.0; 3];
+            w.d = n.v;
+            continue;
+        }
+        if !warm {
+            w.x = [0.0; 3];
+        }
+        if !keep {
+            w.x = add(w.x, fall);
+        }
+        #[cfg(feature = "ground")]
+        if let (Some(g), true) = (ground, n.flags & CONTACT != 0) {
+            w.x = g.with_normal(w.x, g.held_dv(g.distance(n.position()), n.v, h));
+        }
+        nonzero |= (w.x[0].to_bits() | w.x[1].to_bits() | w.x[2].to_bits()) << 1;
+        w.d = if fused { add(n.v, w.x) } else { n.v };
     }
+    // `− p x₀` in the right-hand side: with the fused product, or for a
+    // uniform guess that is not zero.
+    let subtract = fused || (uniform && nonzero != 0);
+
+    // Element pass: elastic forces into r, −K d into q.
     let totals = pass::forces::<B, true, true>(
         b,
         s.method,
@@ -125,30 +229,12 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
         hdr, per_young, nodes, elems, n_elems, &mut pre, mass_coef, k_coef,
     );
 
-    // Node pass: right-hand side, preconditioner, constraints, initial guess.
-    //
-    // Initial guess. CG truncated after a few iterations scales each part of
-    // the right-hand side differently, including the uniform part `h M g`,
-    // so a falling body would feel a fraction of gravity. A uniform velocity
-    // change is an exact eigenvector of A (K of a translation is zero, bit for
-    // bit, since every element sees equal node values), so when no node is
-    // fixed we start from the free-fall change `c = h g / (1 + h α_M)` and CG
-    // only has the rest to do. Fixed bodies start from zero (or the warm start).
-    let any_fixed = hdr.any_fixed;
-    let fall = if any_fixed {
-        [0.0; 3]
-    } else {
-        scale(s.gravity, h / mass_coef)
-    };
-    #[allow(unused_mut)] // only the ground counts held nodes
-    let mut held = 0u32;
-    #[allow(unused_mut)] // only the ground and the tool set it
-    let mut isolated = !any_fixed;
+    // Node pass: the residual `b − A x₀` and the preconditioner's scalars.
     #[cfg(feature = "tool")]
     let mut offsets = Entries::new(grabs);
     #[cfg(feature = "loads")]
     let mut forces = Entries::new(loads);
-    for (n, w) in nodes.iter_mut().zip(work.iter_mut()) {
+    for (n, w) in nodes.iter().zip(work.iter_mut()) {
         let m = n.mass;
         #[cfg(feature = "loads")]
         let f_el = add(w.r, forces.at(n.flags, LOADED));
@@ -165,89 +251,23 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
             f = add(f, scale(sub(tool.anchor(offsets.next()), n.position()), k));
             f = axpy(f, -h * k, n.v);
             p += h * h * k;
-            isolated = false;
         }
         w.r = axpy(scale(f, h), k_coef, w.q);
-        n.flags &= !CONTACT;
         if n.flags & FIXED != 0 {
             w.inv_p = 0.0;
-            w.x = [0.0; 3];
             continue;
         }
         w.inv_p = 1.0 / p;
-        #[cfg(feature = "ground")]
-        if let Some(g) = ground {
-            let dist = g.distance(n.position());
-            if n.flags & RELEASED == 0 && dist <= 0.0 && dot(g.normal, n.v) <= 0.0 {
-                n.flags |= CONTACT;
-                held += 1;
-                isolated = false;
-            }
+        if subtract {
+            w.r = axpy(w.r, -p, w.x);
         }
     }
-    // A warm guess with held normals cannot be scaled to its best multiple
-    // (the normals are prescribed), and unscaled it can start the solve
-    // worse than no guess: steps with ground contacts start cold.
-    let warm = s.warm_start && held == 0;
-    // An isolated body's rigid motions: translations, which `K` annihilates
-    // bit for bit in every method, and, for `Qr`, whose `B` is that of the
-    // current shape, rotations about the current shape too. The solve keeps
-    // the exact step's response to these modes (the momentum), whatever the
-    // preconditioner and however it is truncated: the mass preconditioner
-    // does by itself; the others are made exact on them (`Rigid::finish`),
-    // and only they need the body's inertia at every step.
-    let rotations = s.method == crate::Method::Qr;
     #[cfg(feature = "two-level")]
     let rigid = if isolated && kind != Preconditioner::Mass {
         Rigid::new(nodes, rotations)
     } else {
         None
     };
-    if warm && isolated {
-        if let Some(body) = Rigid::new(nodes, true) {
-            // The warm start keeps no momentum of its own; the free fall
-            // adds the exact impulse of gravity below.
-            let guess = body.fit(nodes, work, |n, w| scale(w.x, n.mass));
-            for (n, w) in nodes.iter().zip(work.iter_mut()) {
-                w.x = body.less_rigid(n, w.x, guess);
-            }
-        }
-    }
-    // Add the free fall to the guess and prescribe the held normals.
-    let keep = warm && !isolated;
-    // The bits of every guess component, sign bit shifted out, or-ed: zero
-    // exactly when every component is ±0 (NaN counts as non-zero, as with
-    // `!=`). Integer ors: on a Cortex-M4F, 15 instructions per node fewer
-    // than three float comparisons.
-    let mut nonzero = 0u32;
-    for (n, w) in nodes.iter().zip(work.iter_mut()) {
-        if n.flags & FIXED != 0 {
-            continue;
-        }
-        if !warm {
-            w.x = [0.0; 3];
-        }
-        if !keep {
-            w.x = add(w.x, fall);
-        }
-        #[cfg(feature = "ground")]
-        if let (Some(g), true) = (ground, n.flags & CONTACT != 0) {
-            w.x = g.with_normal(w.x, g.held_dv(g.distance(n.position()), n.v, h));
-        }
-        nonzero |= (w.x[0].to_bits() | w.x[1].to_bits() | w.x[2].to_bits()) << 1;
-    }
-    let guess = nonzero != 0;
-    // A uniform guess needs no element pass for `r = b − A x₀`.
-    let uniform = isolated && !warm;
-
-    if guess && uniform {
-        // r = b − (1 + h α_M) M c: K c = 0 exactly for the uniform c.
-        for (n, w) in nodes.iter().zip(work.iter_mut()) {
-            w.r = axpy(w.r, -mass_coef * n.mass, w.x);
-        }
-    }
-    // Otherwise, with a guess, the solve starts with r = b − A x₀.
-    let from_guess = guess && !uniform;
     // The operator and the filter are closures marked, on x86,
     // `#[inline(always)]`, so that a host that compiles the step for another
     // instruction set (a `#[target_feature]` caller) gets them compiled for
@@ -316,9 +336,8 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
         s.cg_iterations,
         s.iteration_cap(),
         s.cg_tolerance,
-        from_guess,
-        // A guess is scaled unless it prescribes held normals.
-        held == 0,
+        // The lumped-mass norm: the same measure for every preconditioner.
+        true,
         project,
         whole,
         apply,

@@ -28,6 +28,7 @@ pub(crate) const LOADED: u8 = 16;
 #[cfg(feature = "ground")]
 pub(crate) const RELEASED: u8 = 4;
 /// Node flag: the ground holds this node during the current step.
+#[cfg(feature = "ground")]
 pub(crate) const CONTACT: u8 = 8;
 /// Node flag set only inside `Scene::grab`, to count the distinct nodes asked
 /// for before anything changes.

@@ -192,7 +192,6 @@ row!(WorkQ, NodeWork, q);
 row!(WorkR, NodeWork, r);
 row!(NodeX0, Node, x0);
 row!(NodeU, Node, u);
-row!(NodeV, Node, v);
 
 /// The chunk methods of a backend whose chunk is the whole block
 /// (`type Chunk = Batch; const CHUNKS: usize = 1;`): the block's own.
