@@ -2,7 +2,8 @@
 //!
 //! ```text
 //! cargo run --release --example rt_loop -- [--scene liver|box10k|FILE.tetmesh]
-//!     [--steps 100000] [--rate 1000] [--cg 10] [--load] [--cpu N] [--fifo PRIO]
+//!     [--steps 100000] [--rate 1000] [--cg 10] [--preconditioner NAME]
+//!     [--load] [--cpu N] [--fifo PRIO]
 //!     [--spin-us 50] [--no-slack] [--no-mlock] [--no-prefault] [--ftz] [--still] [--json]
 //! ```
 //!
@@ -12,6 +13,10 @@
 //! time* (what the solver costs) and the *wake-up latency* (how late the OS
 //! woke us: what the machine costs). A deadline is missed when a step ends
 //! after the next deadline; the loop then skips the periods it lost.
+//!
+//! `--cg N` sets the CG iterations (default 10 for the liver, 5 for the
+//! box); `--preconditioner NAME` (`mass`, `block-jacobi`, `two-level`)
+//! replaces the lumped mass, with warm start for the other two.
 //!
 //! `--load` runs a busy thread on every other core (or unpinned) for the
 //! whole loop. `--cpu N` pins the loop thread (and keeps the load off that
@@ -25,7 +30,7 @@
 //! `--still` holds the tool still so the body comes to rest (where velocities
 //! decay towards denormal range).
 //!
-//! The step-time figures of the closing note come from this program.
+//! docs/capi.md's step-time figures come from this program.
 
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -33,13 +38,14 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use corofem_core::VecScene;
-use corofem_core::{BoxMesh, BuildOptions, Material, Settings};
+use corofem_core::{BoxMesh, BuildOptions, Material, Preconditioner, Settings};
 
 struct Args {
     scene: String,
     steps: usize,
     rate: f64,
     cg: Option<u32>,
+    preconditioner: Option<Preconditioner>,
     load: bool,
     cpu: Option<usize>,
     fifo: Option<i32>,
@@ -58,6 +64,7 @@ fn parse_args() -> Result<Args, String> {
         steps: 100_000,
         rate: 1000.0,
         cg: None,
+        preconditioner: None,
         load: false,
         cpu: None,
         fifo: None,
@@ -81,6 +88,13 @@ fn parse_args() -> Result<Args, String> {
             }
             "--rate" => a.rate = val("--rate")?.parse().map_err(|e| format!("--rate: {e}"))?,
             "--cg" => a.cg = Some(val("--cg")?.parse().map_err(|e| format!("--cg: {e}"))?),
+            "--preconditioner" => {
+                let name = val("--preconditioner")?;
+                a.preconditioner = Some(
+                    Preconditioner::from_name(&name)
+                        .ok_or_else(|| format!("--preconditioner: no preconditioner {name:?}"))?,
+                );
+            }
             "--cpu" => a.cpu = Some(val("--cpu")?.parse().map_err(|e| format!("--cpu: {e}"))?),
             "--fifo" => a.fifo = Some(val("--fifo")?.parse().map_err(|e| format!("--fifo: {e}"))?),
             "--spin-us" => {
@@ -100,7 +114,7 @@ fn parse_args() -> Result<Args, String> {
                     "{}",
                     include_str!("rt_loop.rs")
                         .lines()
-                        .take(8)
+                        .take(9)
                         .collect::<Vec<_>>()
                         .join("\n")
                 );
@@ -349,7 +363,21 @@ fn main() {
             std::process::exit(2);
         }
     };
+    if let Some(pre) = args.preconditioner {
+        // Another preconditioner than the scene's: with warm start unless
+        // it is the lumped mass (the paper's CG, from zero).
+        let settings = Settings {
+            preconditioner: pre,
+            warm_start: pre != Preconditioner::Mass,
+            ..*h.scene.settings()
+        };
+        if let Err(e) = h.scene.set_settings(settings) {
+            eprintln!("rt_loop: {e}");
+            std::process::exit(2);
+        }
+    }
     let cg = h.scene.settings().cg_iterations;
+    let pre = h.scene.settings().preconditioner.name();
 
     // Real-time set-up, each reported.
     let pinned = args.cpu.map(pin);
@@ -472,7 +500,7 @@ fn main() {
     let load = load.split_whitespace().next().unwrap_or("?").to_owned();
     if args.json {
         println!(
-            "{{\"scene\":\"{}\",\"cg\":{cg},\"steps\":{n},\"rate\":{},\"load\":{},\"median_us\":{:.1},\"p99_us\":{:.1},\"p999_us\":{:.1},\"max_us\":{:.1},\"first_us\":{:.1},\"wake_p999_us\":{:.1},\"wake_max_us\":{:.1},\"misses\":{misses},\"skipped\":{skipped},\"minflt\":{},\"majflt\":{},\"nivcsw\":{},\"loadavg\":{load}}}",
+            "{{\"scene\":\"{}\",\"cg\":{cg},\"preconditioner\":\"{pre}\",\"steps\":{n},\"rate\":{},\"load\":{},\"median_us\":{:.1},\"p99_us\":{:.1},\"p999_us\":{:.1},\"max_us\":{:.1},\"first_us\":{:.1},\"wake_p999_us\":{:.1},\"wake_max_us\":{:.1},\"misses\":{misses},\"skipped\":{skipped},\"minflt\":{},\"majflt\":{},\"nivcsw\":{},\"loadavg\":{load}}}",
             h.name,
             args.rate,
             args.load,
@@ -489,7 +517,7 @@ fn main() {
         );
         return;
     }
-    println!("scene      {}, {cg} CG iterations, dt 1 ms", h.name);
+    println!("scene      {}, {cg} CG iterations ({pre}), dt 1 ms", h.name);
     println!(
         "loop       {n} steps at {} Hz in {wall:.1} s{}; load average {load}",
         args.rate,
