@@ -9,6 +9,17 @@
 //! the next step. Nodes that were free but end below the plane are projected
 //! onto it and lose their inward normal velocity (a perfectly inelastic,
 //! frictionless contact).
+//!
+//! A body that no fixed node holds is also treated as a whole, where a
+//! truncated solve cannot spread a contact through it (`step.rs`):
+//! * **Carried.** A step with held nodes starts its solve from the rigid
+//!   motion that gives them their prescribed normal velocity, not from the
+//!   free fall: a resting body starts at rest and the solve finds its sag.
+//! * **Landing.** Where a step ends with nodes below the plane, the body's
+//!   rigid motion stops their inward velocity before each node is projected
+//!   (an inelastic rigid impact, never adding energy), for the share of the
+//!   body that a pressure wave crosses in one step: all of a stiff body over
+//!   a long step, none of a body without stiffness.
 
 use crate::error::Parameter;
 use crate::math::{axpy, dot, is_finite3, normalize, Vec3};

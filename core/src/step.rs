@@ -144,6 +144,25 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
             }
         }
     }
+    // A body that the ground holds and nothing else: the guess's rigid part
+    // is the plane's motion that gives the held nodes their prescribed
+    // normal velocity change (`PlaneFit`), not the free fall. A resting
+    // body then starts at rest, carried as a whole, and the solve has only
+    // its deformation to find: the part a truncated solve resolves. (From
+    // the free fall it would have to stop the whole body through the layer
+    // above the held nodes.)
+    #[cfg(feature = "ground")]
+    let carried = match ground {
+        Some(g) if held > 0 && !any_fixed => Rigid::new(nodes, true).and_then(|body| {
+            let mut fit = PlaneFit::new(g.normal, body.c);
+            for n in nodes.iter().filter(|n| n.flags & CONTACT != 0) {
+                let dv = g.held_dv(g.distance(n.position()), n.v, h);
+                fit.add(n.position(), n.mass, dv - dot(g.normal, fall));
+            }
+            fit.solve(&body).map(|m| (fit, m))
+        }),
+        _ => None,
+    };
     // A warm guess with held normals can start the solve worse than no
     // guess (the normals are prescribed, and a truncated solve from there
     // cannot undo them): steps with ground contacts start cold.
@@ -197,6 +216,10 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
         }
         if !keep {
             w.x = add(w.x, fall);
+        }
+        #[cfg(feature = "ground")]
+        if let Some((fit, m)) = &carried {
+            w.x = add(w.x, fit.at(n.position(), *m));
         }
         #[cfg(feature = "ground")]
         if let (Some(g), true) = (ground, n.flags & CONTACT != 0) {
@@ -361,9 +384,27 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
     let mut probe = 0.0f32;
     #[cfg(feature = "tool")]
     let mut offsets = Entries::new(grabs);
+    #[cfg(feature = "ground")]
+    let mut below = false;
     for (n, w) in nodes.iter().zip(work.iter_mut()) {
         let v = add(n.v, w.x);
         let u = axpy(n.u, h, v);
+        #[cfg(feature = "ground")]
+        if let Some(g) = ground {
+            below |= g.distance(add(n.x0, u)) < 0.0;
+        }
+        w.d = u;
+        w.q = v;
+    }
+    // Nodes that end below the ground: the body's rigid motion first takes
+    // them out (`impact`), then each node is projected.
+    #[cfg(feature = "ground")]
+    if let (Some(g), true, false) = (ground, below, any_fixed) {
+        let share = |body: &Rigid| reach(body, elems_ro, n_elems, per_young, h);
+        impact(g, h, s.gravity, held > 0, nodes, work, share);
+    }
+    for (n, w) in nodes.iter().zip(work.iter_mut()) {
+        let (u, v) = (w.d, w.q);
         #[cfg(feature = "ground")]
         let (u, v) = match ground {
             Some(g) => g.project(n.x0, u, v),
@@ -749,4 +790,267 @@ fn prepare(
     }
     hdr.coarse_ready = true;
     kind
+}
+
+/// The rigid motions a frictionless plane can give a body: a velocity
+/// `a n` along its normal and a rotation `θ × (p − c)` about an axis in the
+/// plane (it exerts no tangential force and no torque about its normal).
+/// [`PlaneFit::add`] collects, per node, the normal value `target` the
+/// motion should take at `p`; [`PlaneFit::solve`] gives the motion whose
+/// normal values fit the targets best in the mass-weighted least-squares
+/// sense. Where the targets do not fix all three parameters (one or two
+/// nodes), a small multiple of the motion's kinetic energy, added to the
+/// misfit, picks the motion of least kinetic energy: for a single node,
+/// the rigid body's response to an impulse there.
+#[cfg(feature = "ground")]
+struct PlaneFit {
+    n: Vec3,
+    /// Two unit vectors spanning the plane, with `n` a right-handed frame.
+    t: [Vec3; 2],
+    c: Vec3,
+    /// `Σ m φ φᵀ` and `Σ m φ target`, `φ = (1, t₀·s, t₁·s)`, `s = (p − c) × n`.
+    ata: crate::math::Mat3,
+    atb: Vec3,
+    /// `Σ m` of the nodes added.
+    mass: f32,
+}
+
+#[cfg(feature = "ground")]
+impl PlaneFit {
+    fn new(n: Vec3, c: Vec3) -> Self {
+        // The coordinate axis least aligned with `n` gives the first tangent.
+        let e = if n[0].abs() <= n[1].abs() && n[0].abs() <= n[2].abs() {
+            [1.0, 0.0, 0.0]
+        } else if n[1].abs() <= n[2].abs() {
+            [0.0, 1.0, 0.0]
+        } else {
+            [0.0, 0.0, 1.0]
+        };
+        let t0 = crate::math::normalize(cross(n, e)).unwrap_or([0.0; 3]);
+        Self {
+            n,
+            t: [t0, cross(n, t0)],
+            c,
+            ata: [[0.0; 3]; 3],
+            atb: [0.0; 3],
+            mass: 0.0,
+        }
+    }
+
+    fn row(&self, p: Vec3) -> Vec3 {
+        let s = cross(sub(p, self.c), self.n);
+        [1.0, dot(self.t[0], s), dot(self.t[1], s)]
+    }
+
+    fn add(&mut self, p: Vec3, m: f32, target: f32) {
+        let phi = self.row(p);
+        for (row, pi) in self.ata.iter_mut().zip(phi) {
+            for (a, pj) in row.iter_mut().zip(phi) {
+                *a += m * pi * pj;
+            }
+        }
+        self.atb = axpy(self.atb, m * target, phi);
+        self.mass += m;
+    }
+
+    /// The fitted motion `(a, θ)`, `None` without nodes or for a singular
+    /// system. `body` gives the kinetic-energy weight: `½ (M a² + θᵀ I θ)`,
+    /// added with the factor `1e-3 · Σm / M`, small enough to leave a
+    /// determined fit within 0.1 % and large enough for f32 to resolve it.
+    fn solve(&self, body: &Rigid) -> Option<(f32, Vec3)> {
+        if !(self.mass > 0.0) {
+            return None;
+        }
+        let w = 1e-3 * self.mass * body.inv_mass;
+        let mut m = self.ata;
+        if let (Some(row), Some(inertia)) = (m.get_mut(0), body.inertia.as_ref()) {
+            if let Some(a) = row.get_mut(0) {
+                *a += w / body.inv_mass;
+            }
+            let it = [
+                crate::math::mat_vec(inertia, self.t[0]),
+                crate::math::mat_vec(inertia, self.t[1]),
+            ];
+            for (i, ti) in self.t.iter().enumerate() {
+                for (j, itj) in it.iter().enumerate() {
+                    if let Some(a) = m.get_mut(i + 1).and_then(|r| r.get_mut(j + 1)) {
+                        *a += w * dot(*ti, *itj);
+                    }
+                }
+            }
+        }
+        let x = solve3(&m, self.atb)?;
+        let theta = axpy(scale(self.t[0], x[1]), x[2], self.t[1]);
+        (x[0].is_finite() && is_finite3(theta)).then_some((x[0], theta))
+    }
+
+    /// The motion `(a, θ)` at `p`.
+    #[inline(always)]
+    fn at(&self, p: Vec3, (a, theta): (f32, Vec3)) -> Vec3 {
+        axpy(cross(theta, sub(p, self.c)), a, self.n)
+    }
+}
+
+/// The weight of a held node in the fit of an impact, per unit mass, against
+/// 1 for a node arriving: the ground already holds it, so the motion must
+/// leave its normal velocity as it is (up to `1/HELD` of the arrivals'
+/// misfit, well within f32 for the 3×3 system).
+#[cfg(feature = "ground")]
+const HELD: f32 = 1e4;
+
+/// The rigid part of an impact on the ground, for a body that no fixed node
+/// holds: where the solved step ends with nodes below the plane moving
+/// inwards, the body's rigid motion stops them before each node is
+/// projected, so that a landing body stops as a whole instead of having its
+/// lowest layer squashed onto the plane (the layer a truncated solve leaves
+/// falling, and a long step moves deep into the ground).
+///
+/// * **Which motion.** The plane's ([`PlaneFit`]) that stops the arriving
+///   nodes' inward normal velocity, each node's counted as the smaller of
+///   its own and that of the body's rigid motion there (the motion of its
+///   momentum), so that a node's vibration is not taken for the body's
+///   landing. Held nodes that the motion would push into the ground keep
+///   their normal velocity; those it lifts may lift off.
+/// * **How far.** The body's share `share(body)` that moves as one over the
+///   step ([`reach`]): none without stiffness, all of a stiff one. Within
+///   it, only as far as the energy falls: with `Δ` the motion, the kinetic
+///   energy changes by `s Σ m v·Δ + ½ s² Σ m Δ²`, least at
+///   `s = −Σ m v·Δ / Σ m Δ²`. For a body the ground held at the step's
+///   start (`resting`), gravity's velocity over the step is its weight
+///   pressing, which the elastic solve carries, not an impact: the lift's
+///   potential energy `−h s Σ m g·Δ` counts too, which moves `v` to
+///   `v − h g` in the sum.
+/// * **Where.** It is added to the step's velocity change, so the
+///   displacement moves by the motion over the step (`u' = u + h v'`): the
+///   translation `h s a n` and the rotation by `h s θ` about the centre of
+///   mass at the step's end, made exact (the Cayley rotation of `h s θ/2`,
+///   orthogonal; added linearly, `y + h s θ × y` would stretch the body by
+///   `|h s θ|²/2`). The shape, and so the elastic energy, do not change.
+///
+/// `work` holds the step's end: displacement in `d`, velocity in `q`.
+#[cfg(feature = "ground")]
+fn impact(
+    g: crate::ground::Plane,
+    h: f32,
+    gravity: Vec3,
+    resting: bool,
+    nodes: &[Node],
+    work: &mut [NodeWork],
+    share: impl FnOnce(&Rigid) -> f32,
+) {
+    let Some(body) = Rigid::new(nodes, true) else {
+        return;
+    };
+    let share = share(&body);
+    if !(share > 0.0) {
+        return;
+    }
+    let moving = body.fit(nodes, work, |n, w| scale(w.q, n.mass));
+    // The nodes arriving, and the held nodes the motion would push into the
+    // ground (weight `HELD`, target 0). An active set over at most three
+    // fits: a held node joins once an earlier fit pushed it in, and stays.
+    let frame = PlaneFit::new(g.normal, body.c);
+    let mut fits: [Option<(f32, Vec3)>; 3] = [None; 3];
+    let mut solved = None;
+    for k in 0..fits.len() {
+        let mut stop = PlaneFit::new(g.normal, body.c);
+        let mut grew = false;
+        for (n, w) in nodes.iter().zip(work.iter()) {
+            let p = n.position();
+            if n.flags & CONTACT != 0 {
+                let pushed = |f: &Option<(f32, Vec3)>| {
+                    f.is_some_and(|f| dot(g.normal, frame.at(p, f)) < 0.0)
+                };
+                let earlier = fits.iter().take(k.saturating_sub(1)).any(pushed);
+                let last = k > 0 && fits.get(k - 1).is_some_and(pushed);
+                grew |= last && !earlier;
+                if earlier || last {
+                    stop.add(p, HELD * n.mass, 0.0);
+                }
+            } else {
+                let vn = dot(g.normal, w.q).max(dot(g.normal, body.at(n, moving)));
+                if vn < 0.0 && g.distance(add(n.x0, w.d)) < 0.0 {
+                    stop.add(p, n.mass, -vn);
+                }
+            }
+        }
+        if k > 0 && !grew {
+            break;
+        }
+        let fit = stop.solve(&body);
+        if let Some(f) = fits.get_mut(k) {
+            *f = fit;
+        }
+        solved = fit.map(|m| (stop, m));
+    }
+    let Some((stop, m)) = solved else {
+        return;
+    };
+    let settle = if resting { scale(gravity, h) } else { [0.0; 3] };
+    let (mut along, mut norm2) = (0.0f32, 0.0f32);
+    for (n, w) in nodes.iter().zip(work.iter()) {
+        let dv = stop.at(n.position(), m);
+        along += n.mass * dot(sub(w.q, settle), dv);
+        norm2 += n.mass * dot(dv, dv);
+    }
+    let s = (-along / norm2).min(share);
+    if !(s > 0.0 && s.is_finite()) {
+        return;
+    }
+    // R y = y + 2 w (q × y) + 2 q × (q × y), with the unit quaternion (w, q)
+    // of the Cayley rotation.
+    let (mut mass, mut mc) = (0.0f32, [0.0f32; 3]);
+    for (n, w) in nodes.iter().zip(work.iter()) {
+        mass += n.mass;
+        mc = axpy(mc, n.mass, add(n.x0, w.d));
+    }
+    let c = scale(mc, 1.0 / mass);
+    let half = scale(m.1, 0.5 * h * s);
+    let qw = 1.0 / crate::math::sqrt(1.0 + dot(half, half));
+    let q = scale(half, qw);
+    let shift = scale(g.normal, h * s * m.0);
+    for (n, w) in nodes.iter().zip(work.iter_mut()) {
+        w.q = axpy(w.q, s, stop.at(n.position(), m));
+        let y = sub(add(n.x0, w.d), c);
+        let qy = cross(q, y);
+        let ry = add(y, add(scale(qy, 2.0 * qw), scale(cross(q, qy), 2.0)));
+        w.d = sub(add(add(c, ry), shift), n.x0);
+    }
+}
+
+/// How much of a body moves as one during a step of length `h`: the
+/// distance `c h` a pressure wave travels, over the body's radius of
+/// gyration `L = √(tr I / 2M)`, at most 1. `c² = (λ + 2μ) / ρ` with the
+/// volume-weighted mean Young's modulus, `Σ E V / Σ V`, and `ρ = M / Σ V`:
+/// `c² = (λ' + 2μ') Σ E V / M` (`λ'`, `μ'` per unit `E`). An element's
+/// `E V` is its stored `E / (36 V₀)` times `(6 V₀)²`. The limit of the
+/// rigid part of an impact: a body without stiffness (`c = 0`) takes none,
+/// each node lands alone; a stiff body over a long step lands whole.
+#[cfg(feature = "ground")]
+fn reach(
+    body: &Rigid,
+    elems: &[crate::element::ElementBlock],
+    n_elems: usize,
+    per_young: [f32; 2],
+    h: f32,
+) -> f32 {
+    let mut ev = 0.0f32;
+    for blk in elems.iter().take(n_elems.div_ceil(crate::lanes::LANES)) {
+        for j in 0..crate::lanes::LANES {
+            let at = |b: crate::element::Batch| b.0.get(j).copied().unwrap_or(0.0);
+            let six_v0 = at(blk.rest[0]) * at(blk.rest[2]) * at(blk.rest[5]);
+            ev += at(blk.stiffness) * six_v0 * six_v0;
+        }
+    }
+    let Some(inertia) = body.inertia else {
+        return 0.0;
+    };
+    let trace = inertia[0][0] + inertia[1][1] + inertia[2][2];
+    // (c h / L)² = (λ' + 2μ') Σ E V h² / M · 2M / tr I.
+    let ratio2 = (per_young[0] + 2.0 * per_young[1]) * ev * h * h * 2.0 / trace;
+    if ratio2 >= 1.0 {
+        1.0
+    } else {
+        crate::math::sqrt(ratio2.max(0.0))
+    }
 }

@@ -237,3 +237,109 @@ fn single_tetrahedron_pushed_flat_and_through_itself_recovers() {
         }
     }
 }
+
+/// Bodies dropped on the ground, or set down on it, with the default
+/// method and solver (QR, 5 lumped-mass CG iterations, no damping): the
+/// stiff, nearly incompressible drop with a long step, the soft one, the
+/// 50 ms step and the spinning drop land whole and end with no inverted
+/// element; the elastic energy never exceeds the energy the body started
+/// with (kinetic, plus potential above the ground); the one set down at
+/// rest sags as the converged solve does.
+#[test]
+#[cfg_attr(not(shared_meshes), ignore = "needs ../shared/meshes")]
+fn bodies_dropped_on_the_ground_land_whole_with_the_default_settings() {
+    // The bunny stands on its feet: its mesh has y up.
+    let mesh = shared_mesh("bunny_ftw_3k.tetmesh");
+    let ymin = mesh.nodes.iter().map(|p| p[1]).fold(f32::MAX, f32::min);
+    // (case, E, ν, dt, seconds, drop height, velocity, spin, CG iterations)
+    type Case = (&'static str, f32, f32, f32, f32, f32, f32, f32, u32);
+    let run = |&(name, young, poisson, dt, seconds, height, speed, spin, cg): &Case| {
+        let mut scene = mesh.scene(&Material {
+            young,
+            poisson,
+            density: 1000.0,
+        });
+        scene
+            .set_settings(Settings {
+                dt,
+                cg_iterations: cg,
+                gravity: [0.0, -9.81, 0.0],
+                ..Settings::default()
+            })
+            .unwrap();
+        scene
+            .set_ground(Some(Plane {
+                normal: [0.0, 1.0, 0.0],
+                offset: ymin - height,
+            }))
+            .unwrap();
+        let nodes: Vec<[f32; 3]> = scene.positions().collect();
+        let masses: Vec<f32> = (0..nodes.len() as u32)
+            .map(|i| scene.mass(i).unwrap())
+            .collect();
+        let mass: f64 = masses.iter().map(|&m| m as f64).sum();
+        let c: Vec<f64> = (0..3)
+            .map(|k| {
+                nodes
+                    .iter()
+                    .zip(&masses)
+                    .map(|(p, &m)| p[k] as f64 * m as f64)
+                    .sum::<f64>()
+                    / mass
+            })
+            .collect();
+        let v: Vec<[f32; 3]> = nodes
+            .iter()
+            .map(|p| {
+                // Spin about the horizontal z axis: it tumbles as it falls.
+                let r = [p[0] - c[0] as f32, p[1] - c[1] as f32];
+                [-spin * r[1], spin * r[0] - speed, 0.0]
+            })
+            .collect();
+        scene.set_velocities(&v).unwrap();
+        let start = scene.kinetic_energy() as f64 + mass * 9.81 * (c[1] - (ymin - height) as f64);
+        let mut max_elastic = 0.0f64;
+        let steps = (seconds / dt).round() as usize;
+        for _ in 0..steps {
+            let stats = scene.step().unwrap();
+            max_elastic = max_elastic.max(stats.elastic_energy as f64);
+        }
+        assert_finite(&scene);
+        let (ke, inverted, elastic) = (
+            scene.kinetic_energy() as f64,
+            scene.inverted_count(),
+            scene.elastic_energy() as f64,
+        );
+        eprintln!(
+            "{name}: energy at the start {start:.3e} J, largest elastic {max_elastic:.3e} J; at the end: {inverted} inverted, elastic {elastic:.3e} J, kinetic {ke:.3e} J"
+        );
+        (start, max_elastic, inverted, elastic, ke)
+    };
+    let drops: [Case; 4] = [
+        ("stiff, dt 10 ms", 1e8, 0.49, 1e-2, 1.0, 0.3, 0.0, 0.0, 5),
+        ("soft, dt 5 ms", 5e3, 0.49, 5e-3, 2.0, 0.3, 0.0, 0.0, 5),
+        ("dt 50 ms", 1e5, 0.3, 5e-2, 3.0, 0.3, 0.0, 0.0, 5),
+        ("spinning, dt 2 ms", 2e4, 0.45, 2e-3, 1.5, 0.1, 2.0, 20.0, 5),
+    ];
+    for case in &drops {
+        let (start, max_elastic, inverted, _, ke) = run(case);
+        assert_eq!(inverted, 0, "{}", case.0);
+        assert!(max_elastic < start, "{}: {max_elastic} J", case.0);
+        // At rest (the spinning bunny may still rock or slide: the ground
+        // is frictionless).
+        if case.7 == 0.0 {
+            assert!(ke < 1e-3 * start, "{}: {ke} J", case.0);
+        }
+    }
+    // Set down on the ground: the sag's elastic energy after 2 s against
+    // the same run with 200 CG iterations.
+    let rest = ("resting", 5e4, 0.3, 5e-3, 2.0, 0.0, 0.0, 0.0, 5);
+    let (_, _, inverted, elastic, _) = run(&rest);
+    let (_, _, _, reference, _) =
+        run(&("resting, 200 CG", 5e4, 0.3, 5e-3, 2.0, 0.0, 0.0, 0.0, 200));
+    assert_eq!(inverted, 0);
+    assert!(
+        (elastic / reference - 1.0).abs() < 0.1,
+        "{elastic} J against {reference} J"
+    );
+}
