@@ -151,16 +151,23 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
     // its deformation to find: the part a truncated solve resolves. (From
     // the free fall it would have to stop the whole body through the layer
     // above the held nodes.)
+    // (The body's inertia at the step's start serves the landing below too:
+    // the nodes do not move until the step is applied.)
     #[cfg(feature = "ground")]
-    let carried = match ground {
-        Some(g) if held > 0 && !any_fixed => Rigid::new(nodes, true).and_then(|body| {
+    let resting = match ground {
+        Some(_) if held > 0 && !any_fixed => Rigid::new(nodes, true),
+        _ => None,
+    };
+    #[cfg(feature = "ground")]
+    let carried = match (ground, &resting) {
+        (Some(g), Some(body)) => {
             let mut fit = PlaneFit::new(g.normal, body.c);
             for n in nodes.iter().filter(|n| n.flags & CONTACT != 0) {
                 let dv = g.held_dv(g.distance(n.position()), n.v, h);
                 fit.add(n.position(), n.mass, dv - dot(g.normal, fall));
             }
-            fit.solve(&body).map(|m| (fit, m))
-        }),
+            fit.solve(body).map(|m| (fit, m))
+        }
         _ => None,
     };
     // A warm guess with held normals can start the solve worse than no
@@ -389,9 +396,11 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
     for (n, w) in nodes.iter().zip(work.iter_mut()) {
         let v = add(n.v, w.x);
         let u = axpy(n.u, h, v);
+        // Held nodes end on the plane (below it by round-off at most, which
+        // the projection takes): only the others can land.
         #[cfg(feature = "ground")]
         if let Some(g) = ground {
-            below |= g.distance(add(n.x0, u)) < 0.0;
+            below |= n.flags & CONTACT == 0 && g.distance(add(n.x0, u)) < 0.0;
         }
         w.d = u;
         w.q = v;
@@ -401,7 +410,13 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
     #[cfg(feature = "ground")]
     if let (Some(g), true, false) = (ground, below, any_fixed) {
         let share = |body: &Rigid| reach(body, elems_ro, n_elems, per_young, h);
-        impact(g, h, s.gravity, held > 0, nodes, work, share);
+        let body = match resting {
+            Some(body) => Some(body),
+            None => Rigid::new(nodes, true),
+        };
+        if let Some(body) = body {
+            impact(g, h, s.gravity, held > 0, &body, nodes, work, share);
+        }
     }
     for (n, w) in nodes.iter().zip(work.iter_mut()) {
         let (u, v) = (w.d, w.q);
@@ -803,6 +818,7 @@ fn prepare(
 /// misfit, picks the motion of least kinetic energy: for a single node,
 /// the rigid body's response to an impulse there.
 #[cfg(feature = "ground")]
+#[derive(Clone, Copy)]
 struct PlaneFit {
     n: Vec3,
     /// Two unit vectors spanning the plane, with `n` a right-handed frame.
@@ -927,24 +943,20 @@ const HELD: f32 = 1e4;
 ///   orthogonal; added linearly, `y + h s θ × y` would stretch the body by
 ///   `|h s θ|²/2`). The shape, and so the elastic energy, do not change.
 ///
-/// `work` holds the step's end: displacement in `d`, velocity in `q`.
+/// `work` holds the step's end: displacement in `d`, velocity in `q`;
+/// `body` is the body at the step's start, with its inertia.
 #[cfg(feature = "ground")]
+#[allow(clippy::too_many_arguments)]
 fn impact(
     g: crate::ground::Plane,
     h: f32,
     gravity: Vec3,
     resting: bool,
+    body: &Rigid,
     nodes: &[Node],
     work: &mut [NodeWork],
     share: impl FnOnce(&Rigid) -> f32,
 ) {
-    let Some(body) = Rigid::new(nodes, true) else {
-        return;
-    };
-    let share = share(&body);
-    if !(share > 0.0) {
-        return;
-    }
     let moving = body.fit(nodes, work, |n, w| scale(w.q, n.mass));
     // The nodes arriving, and the held nodes the motion would push into the
     // ground (weight `HELD`, target 0). An active set over at most three
@@ -952,20 +964,19 @@ fn impact(
     let frame = PlaneFit::new(g.normal, body.c);
     let mut fits: [Option<(f32, Vec3)>; 3] = [None; 3];
     let mut solved = None;
+    let mut joined = 0u32;
     for k in 0..fits.len() {
-        let mut stop = PlaneFit::new(g.normal, body.c);
-        let mut grew = false;
+        let mut stop = frame;
+        let mut active = 0u32;
         for (n, w) in nodes.iter().zip(work.iter()) {
             let p = n.position();
             if n.flags & CONTACT != 0 {
                 let pushed = |f: &Option<(f32, Vec3)>| {
                     f.is_some_and(|f| dot(g.normal, frame.at(p, f)) < 0.0)
                 };
-                let earlier = fits.iter().take(k.saturating_sub(1)).any(pushed);
-                let last = k > 0 && fits.get(k - 1).is_some_and(pushed);
-                grew |= last && !earlier;
-                if earlier || last {
+                if fits.iter().take(k).any(pushed) {
                     stop.add(p, HELD * n.mass, 0.0);
+                    active += 1;
                 }
             } else {
                 let vn = dot(g.normal, w.q).max(dot(g.normal, body.at(n, moving)));
@@ -974,10 +985,12 @@ fn impact(
                 }
             }
         }
-        if k > 0 && !grew {
+        // The set only grows: the same count is the same set, the same fit.
+        if k > 0 && active == joined {
             break;
         }
-        let fit = stop.solve(&body);
+        joined = active;
+        let fit = stop.solve(body);
         if let Some(f) = fits.get_mut(k) {
             *f = fit;
         }
@@ -987,24 +1000,26 @@ fn impact(
         return;
     };
     let settle = if resting { scale(gravity, h) } else { [0.0; 3] };
-    let (mut along, mut norm2) = (0.0f32, 0.0f32);
+    // The line search's sums, and the centre of mass at the step's end.
+    let (mut along, mut norm2, mut mc) = (0.0f32, 0.0f32, [0.0f32; 3]);
     for (n, w) in nodes.iter().zip(work.iter()) {
         let dv = stop.at(n.position(), m);
         along += n.mass * dot(sub(w.q, settle), dv);
         norm2 += n.mass * dot(dv, dv);
+        mc = axpy(mc, n.mass, add(n.x0, w.d));
     }
-    let s = (-along / norm2).min(share);
+    // The share takes a pass over the elements: only for an impact.
+    let s = -along / norm2;
     if !(s > 0.0 && s.is_finite()) {
+        return;
+    }
+    let s = s.min(share(body));
+    if !(s > 0.0) {
         return;
     }
     // R y = y + 2 w (q × y) + 2 q × (q × y), with the unit quaternion (w, q)
     // of the Cayley rotation.
-    let (mut mass, mut mc) = (0.0f32, [0.0f32; 3]);
-    for (n, w) in nodes.iter().zip(work.iter()) {
-        mass += n.mass;
-        mc = axpy(mc, n.mass, add(n.x0, w.d));
-    }
-    let c = scale(mc, 1.0 / mass);
+    let c = scale(mc, body.inv_mass);
     let half = scale(m.1, 0.5 * h * s);
     let qw = 1.0 / crate::math::sqrt(1.0 + dot(half, half));
     let q = scale(half, qw);
@@ -1035,11 +1050,11 @@ fn reach(
     h: f32,
 ) -> f32 {
     let mut ev = 0.0f32;
+    // Unused lanes of the last block have zero stiffness.
     for blk in elems.iter().take(n_elems.div_ceil(crate::lanes::LANES)) {
         for j in 0..crate::lanes::LANES {
-            let at = |b: crate::element::Batch| b.0.get(j).copied().unwrap_or(0.0);
-            let six_v0 = at(blk.rest[0]) * at(blk.rest[2]) * at(blk.rest[5]);
-            ev += at(blk.stiffness) * six_v0 * six_v0;
+            let el = blk.get(j);
+            ev += el.stiffness * el.six_v0() * el.six_v0();
         }
     }
     let Some(inertia) = body.inertia else {

@@ -15,13 +15,30 @@ Every run uses the default settings but for `dt` (and what the options
 add); the table gives, per case, whether it finished, the inverted elements
 at the end and at most, the largest elastic energy against the energy the
 body started with (kinetic and potential above the ground), and the median
-time per step.
+time per step. Before it, each mesh's size and quality.
 """
-import argparse, collections, json, os, pathlib, subprocess, sys, time
+import argparse, collections, json, math, pathlib, subprocess, sys, time
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 SHARED = ROOT.parent / "shared" / "meshes"
 MADE = ROOT / "target" / "ground-meshes"
+
+
+def sub(p, q):
+    return [p[k] - q[k] for k in range(3)]
+
+
+def cross(u, v):
+    return [u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]]
+
+
+def dot(u, v):
+    return u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
+
+
+def six_volume(p):
+    """6 × the signed volume of the tetrahedron with corners p[0..4]."""
+    return dot(cross(sub(p[1], p[0]), sub(p[2], p[0])), sub(p[3], p[0]))
 
 
 def read_tetmesh(path):
@@ -66,15 +83,7 @@ def tetgen(src, name, flags):
     pts = [[float(v) for v in r[1:4]] for r in node_rows[1:1 + nn]]
     els = [[int(v) - base for v in r[1:5]] for r in ele_rows[1:1 + ne]]
 
-    def det(e):
-        a, b, c, d = (pts[i] for i in e)
-        u = [b[k] - a[k] for k in range(3)]
-        v = [c[k] - a[k] for k in range(3)]
-        w = [d[k] - a[k] for k in range(3)]
-        return (u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0])
-                + u[2] * (v[0] * w[1] - v[1] * w[0]))
-
-    els = [[e[0], e[2], e[1], e[3]] if det(e) < 0 else e for e in els]
+    els = [[e[0], e[2], e[1], e[3]] if six_volume([pts[i] for i in e]) < 0 else e for e in els]
     keep = sorted({i for e in els for i in e})
     renum = {u: i for i, u in enumerate(keep)}
     write(out, f"tetmesh 1\n{len(keep)} {len(els)}", [pts[u] for u in keep],
@@ -134,6 +143,10 @@ def main():
     have = meshes()
     work = MADE / "runs"
     work.mkdir(parents=True, exist_ok=True)
+    for mesh, (path, _) in have.items():
+        if not a.cases or mesh in a.cases or any(c[1] == mesh and c[0] in a.cases for c in CASES):
+            print(quality(mesh, *read_tetmesh(path)))
+    print()
     print("| case | mesh (tets) | finished | inverted at the end / most | largest elastic / start energy (J) | ms per step |")
     print("|---|---|---|---|---|---|")
     for name, mesh, young, nu, dt, seconds, height, vel, spin in CASES:
@@ -177,16 +190,35 @@ def main():
               f"{max_el:.2e} / {start:.2f} | {j['timing']['ms_per_step_median']:.2f} |")
 
 
+def quality(name, nodes, tets):
+    """The mesh's size, smallest dihedral angle and spread of volumes."""
+    smallest, volumes = 180.0, []
+    for e in tets:
+        p = [nodes[i] for i in e]
+        volumes.append(abs(six_volume(p)))
+        # Outward face normals; the dihedral angle at the edge two faces
+        # share is π minus the angle between their normals.
+        faces = [(1, 2, 3, 0), (0, 3, 2, 1), (0, 1, 3, 2), (0, 2, 1, 3)]
+        normals = []
+        for a, b, c, opposite in faces:
+            n = cross(sub(p[b], p[a]), sub(p[c], p[a]))
+            if dot(n, sub(p[opposite], p[a])) > 0:
+                n = [-x for x in n]
+            normals.append([x / math.sqrt(dot(n, n)) for x in n])
+        for i in range(4):
+            for j in range(i + 1, 4):
+                c = max(-1.0, min(1.0, dot(normals[i], normals[j])))
+                smallest = min(smallest, 180.0 - math.degrees(math.acos(c)))
+    return (f"mesh {name}: {len(nodes)} nodes, {len(tets)} tetrahedra, smallest dihedral "
+            f"angle {smallest:.2f}°, volumes spanning {max(volumes) / min(volumes):.2g}×")
+
+
 def potential(scale, tets, nodes, offset):
     """m g (y_c − offset) of the mesh at rest, density 1000 kg/m³."""
     m_total, my = 0.0, 0.0
     for e in tets:
         p = [[scale * c for c in nodes[i]] for i in e]
-        u = [[p[k][c] - p[0][c] for c in range(3)] for k in (1, 2, 3)]
-        v = abs(u[0][0] * (u[1][1] * u[2][2] - u[1][2] * u[2][1])
-                - u[0][1] * (u[1][0] * u[2][2] - u[1][2] * u[2][0])
-                + u[0][2] * (u[1][0] * u[2][1] - u[1][1] * u[2][0])) / 6.0
-        m = 1000.0 * v
+        m = 1000.0 * abs(six_volume(p)) / 6.0
         m_total += m
         my += m * sum(q[1] for q in p) / 4.0
     return 9.81 * (my - m_total * offset)

@@ -244,7 +244,7 @@ fn single_tetrahedron_pushed_flat_and_through_itself_recovers() {
 /// 50 ms step and the spinning drop land whole and end with no inverted
 /// element; the elastic energy never exceeds the energy the body started
 /// with (kinetic, plus potential above the ground); the one set down at
-/// rest sags as the converged solve does.
+/// rest sags as the 200-iteration solve does.
 #[test]
 #[cfg_attr(not(shared_meshes), ignore = "needs ../shared/meshes")]
 fn bodies_dropped_on_the_ground_land_whole_with_the_default_settings() {
@@ -324,9 +324,15 @@ fn bodies_dropped_on_the_ground_land_whole_with_the_default_settings() {
     for case in &drops {
         let (start, max_elastic, inverted, _, ke) = run(case);
         assert_eq!(inverted, 0, "{}", case.0);
+        // The ground does no work on the body and gravity's is in `start`:
+        // the body can hold no more than it started with (measured: at most
+        // 6 % of it, the tumbling bunny; landed node by node, the stiff
+        // bunny held 1.6e7 times it).
         assert!(max_elastic < start, "{}: {max_elastic} J", case.0);
-        // At rest (the spinning bunny may still rock or slide: the ground
-        // is frictionless).
+        // At rest: under 1e-3 of the start energy still moving (measured:
+        // at most 3.3e-5 of it; 1.3e-2 for the stiff bunny landed node by
+        // node, still shaking). The spinning bunny may still rock or slide:
+        // the ground is frictionless.
         if case.7 == 0.0 {
             assert!(ke < 1e-3 * start, "{}: {ke} J", case.0);
         }
@@ -338,8 +344,13 @@ fn bodies_dropped_on_the_ground_land_whole_with_the_default_settings() {
     let (_, _, _, reference, _) =
         run(&("resting, 200 CG", 5e4, 0.3, 5e-3, 2.0, 0.0, 0.0, 0.0, 200));
     assert_eq!(inverted, 0);
+    // Over the last 0.5 s the 5-iteration run still swings by ±1.6 % about
+    // its sag and the 200-iteration run by 0.4 % (measured on the same
+    // scene with host-tests/ground/run.py, a record every 50 ms); 5 % is
+    // three times that swing. Started from the free fall, the 5-iteration
+    // run ended at twice the reference.
     assert!(
-        (elastic / reference - 1.0).abs() < 0.1,
+        (elastic / reference - 1.0).abs() < 0.05,
         "{elastic} J against {reference} J"
     );
 }
