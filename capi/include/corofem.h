@@ -155,6 +155,12 @@ typedef struct {
     // `two-level` (the host default); otherwise `corofem_set_settings`
     // returns `COROFEM_UNSUPPORTED`.
     uint32_t preconditioner;
+    // Nonzero: the energy guard (a step takes out of the body's
+    // deformation the energy the previous step made while nothing did work
+    // on it). Default 1 in a library built with the feature `energy-guard`
+    // (the host default), else 0; nonzero without it is refused
+    // (`COROFEM_INVALID_ARGUMENT`).
+    uint32_t energy_guard;
 } corofem_settings;
 
 // What the last step did.
@@ -173,6 +179,9 @@ typedef struct {
     uint32_t contacts;
     // Force the body exerts on the tool (N): what a haptic device renders.
     float tool_force[3];
+    // Energy the guard took out before the last step (J): what the step
+    // before it made while nothing did work on the body.
+    float energy_removed;
 } corofem_stats;
 
 #ifdef __cplusplus

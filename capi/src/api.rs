@@ -761,6 +761,7 @@ fn stats(s: &SceneHandle) -> Stats {
         inverted: s.last.inverted,
         contacts: s.last.contacts,
         tool_force: s.last.tool_force,
+        energy_removed: s.last.energy_removed,
     }
 }
 

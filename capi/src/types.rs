@@ -115,6 +115,12 @@ pub struct Settings {
     /// `two-level` (the host default); otherwise `corofem_set_settings`
     /// returns `COROFEM_UNSUPPORTED`.
     pub preconditioner: u32,
+    /// Nonzero: the energy guard (a step takes out of the body's
+    /// deformation the energy the previous step made while nothing did work
+    /// on it). Default 1 in a library built with the feature `energy-guard`
+    /// (the host default), else 0; nonzero without it is refused
+    /// (`COROFEM_INVALID_ARGUMENT`).
+    pub energy_guard: u32,
 }
 
 impl Settings {
@@ -131,6 +137,7 @@ impl Settings {
             warm_start: u32::from(s.warm_start),
             gravity: s.gravity,
             preconditioner: preconditioner_code(s.preconditioner),
+            energy_guard: u32::from(s.energy_guard),
         }
     }
 
@@ -146,6 +153,7 @@ impl Settings {
             warm_start: self.warm_start != 0,
             preconditioner: preconditioner_from_code(self.preconditioner)?,
             gravity: self.gravity,
+            energy_guard: self.energy_guard != 0,
         })
     }
 }
@@ -168,6 +176,9 @@ pub struct Stats {
     pub contacts: u32,
     /// Force the body exerts on the tool (N): what a haptic device renders.
     pub tool_force: [f32; 3],
+    /// Energy the guard took out before the last step (J): what the step
+    /// before it made while nothing did work on the body.
+    pub energy_removed: f32,
 }
 
 // SAFETY: `repr(C)` structs of integers and floats only: every bit pattern

@@ -139,6 +139,10 @@ struct Outcome {
 struct Extremes {
     inverted: u32,
     tool_force: f32,
+    /// Energy the guard took out, summed over the steps (J), and the steps
+    /// in which it did.
+    energy_removed: f64,
+    guarded_steps: u64,
 }
 
 /// The tool as set up at step 0.
@@ -321,6 +325,10 @@ impl<'a> Sim<'a> {
             }
             extremes.inverted = extremes.inverted.max(stats.inverted);
             extremes.tool_force = extremes.tool_force.max(norm(stats.tool_force));
+            if stats.energy_removed > 0.0 {
+                extremes.energy_removed += f64::from(stats.energy_removed);
+                extremes.guarded_steps += 1;
+            }
             let done = k + 1;
             if done % spec.every == 0 || done == steps {
                 let entry = self.record(done, t_end, &stats)?;
@@ -663,6 +671,16 @@ fn summary(
             extremes.inverted
         ),
     ));
+    if extremes.guarded_steps > 0 {
+        lines.push((
+            "energy guard",
+            format!(
+                "took out {} J made by {} steps (energy_guard in docs/scene-format.md)",
+                sig(extremes.energy_removed),
+                extremes.guarded_steps
+            ),
+        ));
+    }
     if spec.tool.is_some() {
         lines.push((
             "tool",

@@ -74,6 +74,7 @@ struct RawSolver {
     #[serde(rename = "static")]
     static_solve: Option<bool>,
     warm_start: Option<bool>,
+    energy_guard: Option<bool>,
     preconditioner: Option<String>,
     newton_iterations: Option<i64>,
     newton_tolerance: Option<f64>,
@@ -803,6 +804,7 @@ impl Ctx<'_> {
             rayleigh_mass,
             rayleigh_stiffness,
             warm_start: s.warm_start.unwrap_or(d.warm_start),
+            energy_guard: s.energy_guard.unwrap_or(d.energy_guard),
             preconditioner: match &s.preconditioner {
                 None => d.preconditioner,
                 Some(name) => Preconditioner::from_name(name).ok_or_else(|| {

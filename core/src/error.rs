@@ -251,6 +251,8 @@ pub enum Parameter {
     Size,
     /// `BoxMesh::tets_per_cell`.
     TetsPerCell,
+    /// `Settings::energy_guard`.
+    EnergyGuard,
 }
 
 impl fmt::Display for Parameter {
@@ -293,6 +295,9 @@ impl fmt::Display for Parameter {
             Parameter::Cells => "`cells`: each must be ≥ 1",
             Parameter::Size => "`size`: each edge must be finite and > 0 m",
             Parameter::TetsPerCell => "`tets_per_cell`: it must be 5 or 6",
+            Parameter::EnergyGuard => {
+                "`energy_guard`: this build has no energy guard (cargo feature `energy-guard`)"
+            }
         })
     }
 }

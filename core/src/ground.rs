@@ -114,6 +114,7 @@ impl<S: crate::Storage> crate::Scene<S> {
             })?),
             None => None,
         };
+        self.hdr.forget_energy();
         Ok(())
     }
 

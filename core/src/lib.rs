@@ -71,6 +71,7 @@
 //! | `polar`, `linear` | the other element methods |
 //! | `qr-rest-b` | SOFA's QR method with `B` frozen at rest: a demonstration of ghost torques |
 //! | `ground`, `tool`, `loads`, `statics`, `diagnostics` | ground contact, haptic tool, constant nodal forces, static solve, energies and momenta (and [`StepStats::elastic_energy`]) |
+//! | `energy-guard` (default) | the energy guard ([`Settings::energy_guard`]): a step takes out of the body's deformation the energy the previous step made while nothing did work on it |
 //! | `alloc` | `VecStorage` and `VecScene`: storage in `Vec`s, sized at run time (the solver never allocates) |
 //! | `full` | all of the above |
 //! | `libm` (default) / `micromath` | math backend: correctly rounded / fast and approximate; `libm` wins when both are on, one is needed |

@@ -68,6 +68,10 @@ pub(crate) struct Header {
     /// step prepares them).
     #[cfg(feature = "two-level")]
     pub(crate) coarse_ready: bool,
+    /// The energy guard's reference (J): the body's energy after the last
+    /// step's check, valid while `energy_known` (`step::Guard`).
+    pub(crate) energy_ref: f32,
+    pub(crate) energy_known: bool,
 }
 
 /// The instruction set a scene is asked to step with: `Best` is zero, so
@@ -123,6 +127,14 @@ impl Header {
         }
     }
 
+    /// Forgets the energy guard's reference: after a change through the
+    /// API (state, material, constraints, loads, settings) the next step's
+    /// energy is the new reference, not a gain.
+    #[inline(always)]
+    pub(crate) fn forget_energy(&mut self) {
+        self.energy_known = false;
+    }
+
     const EMPTY: Self = Self {
         n_nodes: 0,
         n_elems: 0,
@@ -144,6 +156,8 @@ impl Header {
         n_aggs: 0,
         #[cfg(feature = "two-level")]
         coarse_ready: false,
+        energy_ref: 0.0,
+        energy_known: false,
     };
 }
 
@@ -562,6 +576,7 @@ impl<S: Storage> Scene<S> {
         }
         self.hdr.settings = settings;
         self.hdr.settings_valid = true;
+        self.hdr.forget_energy();
         Ok(())
     }
 
@@ -672,6 +687,7 @@ impl<S: Storage> Scene<S> {
             block.set_stiffness(j, stiffness);
         }
         self.hdr.invalidate_coarse();
+        self.hdr.forget_energy();
         Ok(())
     }
 
@@ -686,6 +702,7 @@ impl<S: Storage> Scene<S> {
             });
         }
         self.write_young_all(young);
+        self.hdr.forget_energy();
         Ok(())
     }
 
@@ -713,6 +730,7 @@ impl<S: Storage> Scene<S> {
         }
         self.hdr.poisson = poisson;
         self.hdr.invalidate_coarse();
+        self.hdr.forget_energy();
         Ok(())
     }
 
@@ -730,6 +748,7 @@ impl<S: Storage> Scene<S> {
         }
         self.hdr.poisson = poisson;
         self.write_young_all(young);
+        self.hdr.forget_energy();
         Ok(())
     }
 
@@ -757,11 +776,13 @@ impl<S: Storage> Scene<S> {
             }
         }
         v.hdr.invalidate_coarse();
+        self.hdr.forget_energy();
         Ok(())
     }
 
     /// Frees every fixed node.
     pub fn unfix_all(&mut self) {
+        self.hdr.forget_energy();
         let v = self.view();
         for n in v.nodes.iter_mut() {
             n.flags &= !FIXED;
@@ -818,12 +839,14 @@ impl<S: Storage> Scene<S> {
             node.flags |= LOADED;
             self.hdr.n_loads = n_loads + 1;
         }
+        self.hdr.forget_energy();
         Ok(())
     }
 
     /// Removes every external force.
     #[cfg(feature = "loads")]
     pub fn clear_forces(&mut self) {
+        self.hdr.forget_energy();
         for n in self.view().nodes.iter_mut() {
             n.flags &= !crate::storage::LOADED;
         }
@@ -839,6 +862,7 @@ impl<S: Storage> Scene<S> {
         for (n, p) in v.nodes.iter_mut().zip(positions) {
             n.u = sub(*p, n.x0);
         }
+        self.hdr.forget_energy();
         Ok(())
     }
 
@@ -851,6 +875,7 @@ impl<S: Storage> Scene<S> {
         for (n, u) in v.nodes.iter_mut().zip(displacements) {
             n.u = *u;
         }
+        self.hdr.forget_energy();
         Ok(())
     }
 
@@ -861,12 +886,14 @@ impl<S: Storage> Scene<S> {
         for (n, vel) in v.nodes.iter_mut().zip(velocities) {
             n.v = if n.flags & FIXED != 0 { [0.0; 3] } else { *vel };
         }
+        self.hdr.forget_energy();
         Ok(())
     }
 
     /// Back to the rest shape at rest: displacements, velocities, the warm
     /// start and the time are zeroed (constraints and loads are kept).
     pub fn reset_state(&mut self) {
+        self.hdr.forget_energy();
         let v = self.view();
         for n in v.nodes.iter_mut() {
             n.u = [0.0; 3];

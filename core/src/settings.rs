@@ -111,6 +111,21 @@ pub struct Settings {
     pub preconditioner: Preconditioner,
     /// Gravity (m/s²). Default `(0, 0, −9.81)`.
     pub gravity: Vec3,
+    /// The energy guard: a step whose start finds the body with more energy
+    /// (kinetic, elastic, and the potential of gravity and the loads) than
+    /// the previous step left it, while nothing did work on it, first takes
+    /// the excess out of the velocity's deformation part, keeping the
+    /// linear and angular momentum ([`StepStats::energy_removed`]). Nothing
+    /// does work when no tool holds the body, no fixed node moves and no
+    /// call changed the scene between the steps. It stops the energy that
+    /// `Qr`'s forces feed in once many elements invert (they are not the
+    /// gradient of an energy there) and any energy a linearised step makes
+    /// in a fast-turning body. It costs the elastic energy's sum in the
+    /// force pass and one pass over the nodes; a correction, which a step
+    /// that makes no energy never needs, one pass more. Needs the feature
+    /// `energy-guard` (default on in builds with it, else off; `true`
+    /// without it is refused). Default: on where compiled.
+    pub energy_guard: bool,
 }
 
 impl Settings {
@@ -127,6 +142,7 @@ impl Settings {
             warm_start: false,
             preconditioner: Preconditioner::DEFAULT,
             gravity: [0.0, 0.0, -9.81],
+            energy_guard: cfg!(feature = "energy-guard"),
         }
     }
 
@@ -143,6 +159,7 @@ impl Settings {
         warm_start: false,
         preconditioner: Preconditioner::Mass,
         gravity: [0.0; 3],
+        energy_guard: false,
     };
 
     /// The most CG iterations a step runs: `2 cg_iterations + 16`. The
@@ -181,6 +198,9 @@ impl Settings {
         }
         if !is_finite3(self.gravity) {
             return bad(Parameter::Gravity);
+        }
+        if self.energy_guard && !cfg!(feature = "energy-guard") {
+            return bad(Parameter::EnergyGuard);
         }
         Ok(())
     }
@@ -223,7 +243,13 @@ pub struct StepStats {
     /// 0.4 instructions per tetrahedron-step there.) `Qr`'s forces are not
     /// the gradient of an energy: with many inverted elements and light
     /// damping they can feed energy in while every value stays finite
-    /// (docs/reliability.md). Energy that grows while nothing does work on
-    /// the body is the signal to switch to `Polar` or add stiffness damping.
+    /// (docs/reliability.md); [`Settings::energy_guard`] takes it out
+    /// again ([`StepStats::energy_removed`]). Energy that grows while
+    /// nothing does work on the body, or a guard that keeps acting, is the
+    /// signal to switch to `Polar` or add stiffness damping.
     pub elastic_energy: f32,
+    /// Energy the guard took out of the body's deformation before this
+    /// step (J, [`Settings::energy_guard`]): what the previous step made.
+    /// Zero for a step that made none, and without the guard.
+    pub energy_removed: f32,
 }

@@ -264,13 +264,21 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
     let mut offsets = Entries::new(grabs);
     #[cfg(feature = "loads")]
     let mut forces = Entries::new(loads);
+    // The guard's sums: twice the kinetic energy, the potential energy of
+    // gravity and the loads (`−f·u`, constant forces), and its magnitude.
+    let mut ledger = Ledger::default();
     for (n, w) in nodes.iter().zip(work.iter_mut()) {
         let m = n.mass;
+        let weight = scale(s.gravity, m);
         #[cfg(feature = "loads")]
-        let f_el = add(w.r, forces.at(n.flags, LOADED));
+        let (load, f_el) = {
+            let load = forces.at(n.flags, LOADED);
+            (load, add(w.r, load))
+        };
         #[cfg(not(feature = "loads"))]
-        let f_el = w.r;
-        let mut f = add(f_el, scale(s.gravity, m));
+        let (load, f_el) = ([0.0; 3], w.r);
+        ledger.add(n, weight, load);
+        let mut f = add(f_el, weight);
         f = axpy(f, -s.rayleigh_mass * m, n.v);
         #[allow(unused_mut)] // only the tool adds to it
         let mut p = mass_coef * m;
@@ -292,6 +300,35 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
             w.r = axpy(w.r, -p, w.x);
         }
     }
+    // The energy guard (`Correction`): the body's energy at the step's
+    // start against the reference the last step left.
+    let elastic = totals.energy;
+    let energy = 0.5 * ledger.kinetic2 + elastic + ledger.potential;
+    #[allow(unused_mut)] // only the tool sets it
+    let mut closed = true;
+    #[cfg(feature = "tool")]
+    if tool.active() {
+        closed = false;
+    }
+    let guard = cfg!(feature = "energy-guard") && s.energy_guard;
+    let size = 0.5 * ledger.kinetic2 + elastic.abs() + ledger.magnitude;
+    let correction =
+        if guard && closed && hdr.energy_known && energy - hdr.energy_ref > GUARD_ROUNDING * size {
+            Correction::new(nodes, work, any_fixed, energy - hdr.energy_ref)
+        } else {
+            None
+        };
+    if let Some(c) = &correction {
+        for (n, w) in nodes.iter().zip(work.iter_mut()) {
+            if n.flags & FIXED == 0 {
+                w.r = axpy(w.r, n.mass, c.delta(n));
+            }
+        }
+    }
+    let start = |n: &Node| match &correction {
+        Some(c) => add(n.v, c.delta(n)),
+        None => n.v,
+    };
     #[cfg(feature = "two-level")]
     let rigid = if isolated && kind != Preconditioner::Mass {
         Rigid::new(nodes, rotations)
@@ -372,13 +409,21 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
         whole,
         apply,
         #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
-        |work: &[NodeWork]| certified(nodes, work, project, h * s.rayleigh_mass),
+        |work: &[NodeWork]| {
+            certified(
+                nodes,
+                work,
+                project,
+                h * s.rayleigh_mass,
+                correction.as_ref(),
+            )
+        },
     );
     if outcome.overflow {
         return Err(StepError::Diverged);
     }
     if !outcome.certified {
-        galerkin(nodes, work, isolated, rotations, project, apply);
+        galerkin(nodes, work, isolated, rotations, project, apply, start);
     }
 
     // Check, then apply. The new displacement and velocity (after the ground
@@ -461,6 +506,9 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
     #[cfg(feature = "two-level")]
     crate::precond::commit_rotations(pre.aggs);
     hdr.time += f64::from(h);
+    let removed = correction.map_or(0.0, |c| c.removed);
+    hdr.energy_known = guard && closed;
+    hdr.energy_ref = energy - removed;
     Ok(StepStats {
         cg_iterations: outcome.iterations,
         galerkin: !outcome.certified,
@@ -473,7 +521,117 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
         } else {
             f32::NAN
         },
+        energy_removed: removed,
     })
+}
+
+/// The guard's tolerance, relative to the sum of the magnitudes of the
+/// energy's terms (kinetic, elastic, `|(m g + f)·u|` per node): the energy
+/// is three f32 sums over nodes or elements, recomputed each step, and a
+/// gain below this is their rounding rather than energy the step made.
+/// A gain taken for one by mistake costs little (the guard removes only
+/// the measured excess); the bound keeps a step that makes no energy from
+/// being touched at all, which keeps such runs' bits those of the
+/// unguarded step: the web demo's and the determinism tests' hashed scenes
+/// (with gravity and the ground) never trigger it.
+const GUARD_ROUNDING: f32 = 16.0 * f32::EPSILON;
+
+/// The energy guard's sums over the free nodes at the step's start.
+#[derive(Clone, Copy, Default)]
+struct Ledger {
+    /// `Σ m |v|²`.
+    kinetic2: f32,
+    /// `−Σ (m g + f)·u`: gravity's and the loads' potential energy.
+    potential: f32,
+    /// `Σ |(m g + f)·u|`.
+    magnitude: f32,
+}
+
+impl Ledger {
+    #[inline(always)]
+    fn add(&mut self, n: &Node, weight: Vec3, load: Vec3) {
+        // Fixed nodes do not move (their velocity is zero): no energy.
+        if n.flags & FIXED != 0 {
+            return;
+        }
+        self.kinetic2 += n.mass * dot(n.v, n.v);
+        let work = dot(weight, n.u) + dot(load, n.u);
+        self.potential -= work;
+        self.magnitude += work.abs();
+    }
+}
+
+/// The energy guard's correction of the velocity a step starts from. When
+/// the body's energy (kinetic, elastic, and the potential of gravity and
+/// the loads) at a step's start exceeds what the last step left while
+/// nothing did work on the body (no tool held it, no call changed the
+/// scene), the excess `X` is taken out of the velocity's
+/// deformation part, `v ← v + δ` with `δ = (s − 1) (v − v_R)`, where `v_R`
+/// is the rigid motion of the same linear and angular momentum (for a body
+/// without fixed nodes; else `v_R = 0`) and `s² = 1 − X / KE_d`, `KE_d` the
+/// deformation part's kinetic energy (at most all of it). `v − v_R` is
+/// `M`-orthogonal to rigid motions, so the kinetic energy falls by exactly
+/// `(1 − s²) KE_d` and the momentum is kept.
+///
+/// The step's state is not written before the step succeeds: starting
+/// from `v + δ` is the same as keeping `v` and adding `M δ` to the
+/// right-hand side (`A (y − δ) = b(v + δ)` with `b` linear in `v`:
+/// `b(v + δ) = b(v) − h α_M M δ − h (α_K + h) K δ`, and `A δ` has the same
+/// `K δ` term, leaving `A y = b(v) + M δ`), and the step's new velocity is
+/// still `v + y`.
+#[derive(Clone, Copy)]
+struct Correction {
+    body: Option<(Rigid, Motion)>,
+    factor: f32,
+    removed: f32,
+}
+
+impl Correction {
+    fn new(nodes: &[Node], work: &[NodeWork], any_fixed: bool, excess: f32) -> Option<Self> {
+        let body = if any_fixed {
+            None
+        } else {
+            Rigid::new(nodes, true).map(|b| {
+                // The fit refined once: the momentum of `v − v_R`, summed
+                // again in f32, is what the correction would change.
+                let m = b.fit(nodes, work, |n, _| scale(n.v, n.mass));
+                let rest = b.fit(nodes, work, |n, _| scale(b.less_rigid(n, n.v, m), n.mass));
+                (b, (add(m.0, rest.0), add(m.1, rest.1)))
+            })
+        };
+        let mut deform2 = 0.0f32;
+        for n in nodes.iter().filter(|n| n.flags & FIXED == 0) {
+            let d = match &body {
+                Some((b, m)) => b.less_rigid(n, n.v, *m),
+                None => n.v,
+            };
+            deform2 += n.mass * dot(d, d);
+        }
+        let kinetic = 0.5 * deform2;
+        if !(kinetic > 0.0 && kinetic.is_finite()) {
+            return None;
+        }
+        let keep2 = (1.0 - excess / kinetic).max(0.0);
+        let s = crate::math::sqrt(keep2);
+        Some(Self {
+            body,
+            factor: s - 1.0,
+            removed: (1.0 - s * s) * kinetic,
+        })
+    }
+
+    /// `δ` at node `n` (zero at fixed nodes).
+    #[inline(always)]
+    fn delta(&self, n: &Node) -> Vec3 {
+        if n.flags & FIXED != 0 {
+            return [0.0; 3];
+        }
+        let d = match &self.body {
+            Some((b, m)) => b.less_rigid(n, n.v, *m),
+            None => n.v,
+        };
+        scale(d, self.factor)
+    }
 }
 
 /// The filter `S` of node `i`: the ground's normal removed from a held
@@ -630,17 +788,25 @@ fn certified(
     work: &[NodeWork],
     project: impl Fn(usize, Vec3) -> Vec3,
     h_alpha_m: f32,
+    correction: Option<&Correction>,
 ) -> bool {
     let (mut inject, mut dissipate, mut kinetic) = (0.0f32, 0.0f32, 0.0f32);
     for (i, (n, w)) in nodes.iter().zip(work.iter()).enumerate() {
         if n.flags & FIXED != 0 {
             continue;
         }
-        let dv = w.x;
-        let v1 = add(n.v, dv);
+        let v1 = add(n.v, w.x);
+        // The step starts from the guard's velocity `v + δ`: `Δv = x − δ`.
+        let (v0, dv) = match correction {
+            Some(c) => {
+                let delta = c.delta(n);
+                (add(n.v, delta), sub(w.x, delta))
+            }
+            None => (n.v, w.x),
+        };
         inject -= dot(v1, project(i, w.r));
         dissipate += n.mass * (0.5 * dot(dv, dv) + h_alpha_m * dot(v1, v1));
-        kinetic += n.mass * dot(n.v, n.v);
+        kinetic += n.mass * dot(v0, v0);
     }
     inject <= dissipate + f32::EPSILON * 0.5 * kinetic
 }
@@ -668,6 +834,7 @@ fn galerkin(
     rotations: bool,
     project: impl Fn(usize, Vec3) -> Vec3,
     mut apply: impl FnMut(&mut [NodeWork]) -> f32,
+    start: impl Fn(&Node) -> Vec3,
 ) {
     let rigid = if isolated {
         Rigid::new(nodes, rotations)
@@ -678,7 +845,7 @@ fn galerkin(
     let (fit_x, fit_v) = match rigid {
         Some(body) => (
             body.fit(nodes, work, |n, w| scale(w.x, n.mass)),
-            body.fit(nodes, work, |n, _| scale(n.v, n.mass)),
+            body.fit(nodes, work, |n, _| scale(start(n), n.mass)),
         ),
         None => (none, none),
     };
@@ -702,7 +869,7 @@ fn galerkin(
     let e_norm = descend(work, eae).map_or(0.0, |a| (1.0 + a) * (1.0 + a) * eae);
     // Along f = P v, made A-orthogonal to e = P Δv.
     for (i, (n, w)) in nodes.iter().zip(work.iter_mut()).enumerate() {
-        w.d = part(i, n, n.v, fit_v);
+        w.d = part(i, n, start(n), fit_v);
         w.q = [0.0; 3];
     }
     let mut faf = apply(work);

@@ -200,7 +200,21 @@ pub const ALPHA_K: f32 = 0.0;
 /// fast as the fundamental would critically, and `α_K =` [`ALPHA_K`]. With E = 0 nothing can pull the
 /// body back; there the recovery phase first raises E to 3e4 Pa over 0.1 s,
 /// as the paper does with its crushed rabbit.
+///
+/// The energy guard is on (the default) unless `COROFEM_SWEEP_ENERGY_GUARD=0`.
 pub fn run_case(body: &Body, case: Case, method: Method, max_recovery_steps: u64) -> Outcome {
+    let guard = std::env::var("COROFEM_SWEEP_ENERGY_GUARD").map_or(true, |g| g != "0");
+    run_case_guarded(body, case, method, max_recovery_steps, guard)
+}
+
+/// [`run_case`] with the energy guard on or off.
+pub fn run_case_guarded(
+    body: &Body,
+    case: Case,
+    method: Method,
+    max_recovery_steps: u64,
+    energy_guard: bool,
+) -> Outcome {
     let start = Instant::now();
     let mut scene: VecScene =
         corofem::VecScene::with_capacity(body.mesh.nodes.len(), body.mesh.tets.len());
@@ -260,6 +274,7 @@ pub fn run_case(body: &Body, case: Case, method: Method, max_recovery_steps: u64
                 })
             },
         ),
+        energy_guard,
         ..Settings::default()
     };
     if let Err(e) = scene.set_settings(settings) {

@@ -33,6 +33,7 @@ fn hanging(mesh: &CoreMesh, pre: Preconditioner, cg_iterations: u32, warm: bool)
         warm_start: warm,
         preconditioner: pre,
         gravity: [0.0, -9.81, 0.0],
+        energy_guard: true,
     })
     .unwrap();
     s
