@@ -65,8 +65,8 @@ docs/scene-format.md. Among the scene keys:
                                     cost; steps with ground contacts start cold; default false)
   [solver] energy_guard = false     turn off the energy guard (on by default): a step that
                                     finds the body with more energy than the last step left
-                                    it, while nothing did work on it, first takes the excess
-                                    out of its deformation velocity (momentum kept)
+                                    it, while no tool or ground held it, first takes the
+                                    excess out of its deformation velocity (momentum kept)
   [solver] preconditioner = \"mass\"  what preconditions CG: \"mass\" (the lumped mass, the
                                     paper's CG; the default), \"block-jacobi\" (3x3 node blocks
                                     of the system matrix) or \"two-level\" (node blocks plus

@@ -116,8 +116,9 @@ pub struct Settings {
     /// the previous step left it, while nothing did work on it, first takes
     /// the excess out of the velocity's deformation part, keeping the
     /// linear and angular momentum ([`StepStats::energy_removed`]). Nothing
-    /// does work when no tool holds the body, no fixed node moves and no
-    /// call changed the scene between the steps. It stops the energy that
+    /// does work in a step in which no tool and no ground holds the body
+    /// (the ground's held nodes, its impact and its projection do work) and
+    /// after which no call changed the scene. It stops the energy that
     /// `Qr`'s forces feed in once many elements invert (they are not the
     /// gradient of an energy there) and any energy a linearised step makes
     /// in a fast-turning body. It costs the elastic energy's sum in the

@@ -507,6 +507,13 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
     crate::precond::commit_rotations(pre.aggs);
     hdr.time += f64::from(h);
     let removed = correction.map_or(0.0, |c| c.removed);
+    // The ground does work on a body it holds or stops (the held normals'
+    // prescribed velocities, the impact, the projection): a step with
+    // contacts leaves no reference.
+    #[cfg(feature = "ground")]
+    if held > 0 || below {
+        closed = false;
+    }
     hdr.energy_known = guard && closed;
     hdr.energy_ref = energy - removed;
     Ok(StepStats {
@@ -564,8 +571,8 @@ impl Ledger {
 /// The energy guard's correction of the velocity a step starts from. When
 /// the body's energy (kinetic, elastic, and the potential of gravity and
 /// the loads) at a step's start exceeds what the last step left while
-/// nothing did work on the body (no tool held it, no call changed the
-/// scene), the excess `X` is taken out of the velocity's
+/// nothing did work on the body (no tool and no ground held it, no call
+/// changed the scene), the excess `X` is taken out of the velocity's
 /// deformation part, `v ← v + δ` with `δ = (s − 1) (v − v_R)`, where `v_R`
 /// is the rigid motion of the same linear and angular momentum (for a body
 /// without fixed nodes; else `v_R = 0`) and `s² = 1 − X / KE_d`, `KE_d` the
