@@ -178,6 +178,8 @@ impl SceneDef {
                 warm_start: pre != Preconditioner::Mass,
                 preconditioner: pre,
                 gravity: self.gravity,
+                // As in a default scene.
+                energy_guard: true,
             })
             .expect("settings");
         scene

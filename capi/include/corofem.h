@@ -86,6 +86,9 @@ enum corofem_method
     COROFEM_METHOD_LINEAR = 2,
     // QR with `B` frozen at rest, as SOFA's default (ghost torques).
     COROFEM_METHOD_QR_REST_B = 3,
+    // QR, with inverted elements taking the closest proper rotation
+    // (feature `qr-invertible`).
+    COROFEM_METHOD_QR_INVERTIBLE = 4,
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L

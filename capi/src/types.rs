@@ -17,6 +17,9 @@ pub enum MethodCode {
     Linear = 2,
     /// QR with `B` frozen at rest, as SOFA's default (ghost torques).
     QrRestB = 3,
+    /// QR, with inverted elements taking the closest proper rotation
+    /// (feature `qr-invertible`).
+    QrInvertible = 4,
 }
 
 /// The core method for a C code (the codes are the order of

@@ -316,7 +316,7 @@ fn bad_pointers_and_indices_leave_the_scene_unchanged() {
         let both = (&mut stats as *mut Stats).cast::<f32>();
         let st = corofem_step_haptic(f.h, [0.0f32; 3].as_ptr(), both, &mut stats);
         assert_eq!(st, Status::Overlap);
-        assert_eq!(corofem_set_method(f.h, 4), Status::InvalidArgument);
+        assert_eq!(corofem_set_method(f.h, 5), Status::InvalidArgument);
         let mut s = std::mem::zeroed::<Settings>();
         assert_eq!(corofem_get_settings(f.h, &mut s), Status::Ok);
         let good = s;
@@ -346,6 +346,7 @@ fn methods_and_ground_switch() {
             MethodCode::Polar,
             MethodCode::Linear,
             MethodCode::QrRestB,
+            MethodCode::QrInvertible,
         ] {
             assert_eq!(corofem_set_method(f.h, m as u32), Status::Ok, "{m:?}");
             let mut s = std::mem::zeroed::<Settings>();

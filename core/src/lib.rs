@@ -29,8 +29,12 @@
 //!
 //! * Rotational invariance: a rigidly rotated body has no elastic force.
 //! * Newton: each element's forces sum to zero exactly (`f_a = −Σ fᵢ`).
-//! * Euler: with `B` from the current shape (`Method::Qr`) they have no net
-//!   torque; `Method::QrRestB` (SOFA's default) shows the ghost torques.
+//! * Euler: with `B` from the current shape (`Method::Qr`,
+//!   `Method::QrInvertible`) they have no net torque; `Method::QrRestB`
+//!   (SOFA's default) shows the ghost torques.
+//! * Inversion: `Method::QrInvertible` turns an inverted
+//!   element with the rotation closest to its deformation gradient, which
+//!   pushes it back through itself.
 //! * Momentum: lumped-mass-preconditioned CG keeps the linear and angular
 //!   momentum of an isolated body at any iteration count.
 //!
@@ -68,6 +72,7 @@
 //! | feature | what |
 //! |---|---|
 //! | `qr` (default) | the paper's QR method |
+//! | `qr-invertible` | the paper's QR method, with inverted elements turned by the closest proper rotation (brings `qr`) |
 //! | `polar`, `linear` | the other element methods |
 //! | `qr-rest-b` | SOFA's QR method with `B` frozen at rest: a demonstration of ghost torques |
 //! | `ground`, `tool`, `loads`, `statics`, `diagnostics` | ground contact, haptic tool, constant nodal forces, static solve, energies and momenta (and [`StepStats::elastic_energy`]) |

@@ -253,7 +253,13 @@ pub(crate) fn det3<T: Real>(a: [T; 3], b: [T; 3], c: [T; 3]) -> T {
 pub(crate) type Mat3 = [[f32; 3]; 3];
 
 /// `M v`.
-#[cfg(any(feature = "polar", feature = "two-level", feature = "ground", test))]
+#[cfg(any(
+    feature = "polar",
+    feature = "qr-invertible",
+    feature = "two-level",
+    feature = "ground",
+    test
+))]
 #[inline(always)]
 #[must_use]
 pub(crate) fn mat_vec<T: Real>(m: &[[T; 3]; 3], v: [T; 3]) -> [T; 3] {

@@ -399,6 +399,25 @@ impl<const CURRENT_B: bool> LaneKernel for QrLanes<CURRENT_B> {
     }
 }
 
+/// The `QrInvertible` kernel in lanes: `Qr`'s, with the inverted lanes
+/// marked irregular, for [`element::forces`] to redo alone
+/// ([`qr::forces_invertible`]).
+#[cfg(feature = "qr-invertible")]
+struct QrInvertibleLanes;
+
+#[cfg(feature = "qr-invertible")]
+impl LaneKernel for QrInvertibleLanes {
+    const METHOD: Method = Method::QrInvertible;
+    #[inline(always)]
+    fn run(edges: &Edges, blk: &ElementBlock, lame: [Batch; 2]) -> LaneForces {
+        let mut out = QrLanes::<true>::run(edges, blk, lame);
+        for (r, zd) in out.regular.iter_mut().zip(out.volume.0) {
+            *r &= zd >= 0.0;
+        }
+        out
+    }
+}
+
 /// The linear kernel in lanes.
 #[cfg(feature = "linear")]
 struct LinearLanes;
@@ -462,6 +481,8 @@ impl<B: Backend, S: Sink> ForcePass<'_, B, S> {
             Method::Qr if whole => self.lanes::<QrLanes<true>, WITH_KV, COMMIT>(blk),
             #[cfg(feature = "qr-rest-b")]
             Method::QrRestB if whole => self.lanes::<QrLanes<false>, WITH_KV, COMMIT>(blk),
+            #[cfg(feature = "qr-invertible")]
+            Method::QrInvertible if whole => self.lanes::<QrInvertibleLanes, WITH_KV, COMMIT>(blk),
             #[cfg(feature = "linear")]
             Method::Linear if whole => self.lanes::<LinearLanes, WITH_KV, COMMIT>(blk),
             #[cfg(feature = "polar")]

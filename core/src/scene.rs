@@ -69,8 +69,10 @@ pub(crate) struct Header {
     #[cfg(feature = "two-level")]
     pub(crate) coarse_ready: bool,
     /// The energy guard's reference (J): the body's energy after the last
-    /// step's check, valid while `energy_known` (`step::Guard`).
+    /// step's check, valid while `energy_known` (`step::Correction`).
+    #[cfg(feature = "energy-guard")]
     pub(crate) energy_ref: f32,
+    #[cfg(feature = "energy-guard")]
     pub(crate) energy_known: bool,
 }
 
@@ -132,7 +134,10 @@ impl Header {
     /// energy is the new reference, not a gain.
     #[inline(always)]
     pub(crate) fn forget_energy(&mut self) {
-        self.energy_known = false;
+        #[cfg(feature = "energy-guard")]
+        {
+            self.energy_known = false;
+        }
     }
 
     const EMPTY: Self = Self {
@@ -156,7 +161,9 @@ impl Header {
         n_aggs: 0,
         #[cfg(feature = "two-level")]
         coarse_ready: false,
+        #[cfg(feature = "energy-guard")]
         energy_ref: 0.0,
+        #[cfg(feature = "energy-guard")]
         energy_known: false,
     };
 }

@@ -181,7 +181,7 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
     // preconditioner and however it is truncated: the mass preconditioner
     // does by itself; the others are made exact on them (`Rigid::finish`),
     // and only they need the body's inertia at every step.
-    let rotations = s.method == crate::Method::Qr;
+    let rotations = matches!(s.method, crate::Method::Qr | crate::Method::QrInvertible);
     if warm && isolated {
         if let Some(body) = Rigid::new(nodes, true) {
             // The warm start keeps no momentum of its own; the free fall
@@ -311,13 +311,17 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
         closed = false;
     }
     let guard = cfg!(feature = "energy-guard") && s.energy_guard;
+    #[cfg(feature = "energy-guard")]
+    let reference = hdr.energy_known.then_some(hdr.energy_ref);
+    #[cfg(not(feature = "energy-guard"))]
+    let reference = None::<f32>;
     let size = 0.5 * ledger.kinetic2 + elastic.abs() + ledger.magnitude;
-    let correction =
-        if guard && closed && hdr.energy_known && energy - hdr.energy_ref > GUARD_ROUNDING * size {
-            Correction::new(nodes, work, any_fixed, energy - hdr.energy_ref)
-        } else {
-            None
-        };
+    let correction = match reference {
+        Some(r) if guard && closed && energy - r > GUARD_ROUNDING * size => {
+            Correction::new(nodes, work, any_fixed, energy - r)
+        }
+        _ => None,
+    };
     if let Some(c) = &correction {
         for (n, w) in nodes.iter().zip(work.iter_mut()) {
             if n.flags & FIXED == 0 {
@@ -425,6 +429,19 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
     if !outcome.certified {
         galerkin(nodes, work, isolated, rotations, project, apply, start);
     }
+    // `QrInvertible`'s inverted elements take the closest rotation, whose
+    // stiffness product (with the rotated rest gradients) has a net torque:
+    // the solve's angular momentum is then made the exact step's.
+    if cfg!(feature = "qr-invertible")
+        && isolated
+        && totals.inverted > 0
+        && s.method == crate::Method::QrInvertible
+    {
+        if let Some(body) = Rigid::new(nodes, true) {
+            let torque_h = scale(ledger.torque(body.c), h);
+            keep_angular_momentum(&body, nodes, work, mass_coef, torque_h);
+        }
+    }
 
     // Check, then apply. The new displacement and velocity (after the ground
     // projection) go into the spent CG scratch `d` and `q`, and the state is
@@ -514,8 +531,17 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
     if held > 0 || below {
         closed = false;
     }
-    hdr.energy_known = guard && closed;
-    hdr.energy_ref = energy - removed;
+    // Only with the guard: without it (a constant where the feature is
+    // off) the energy's sums are not computed at all.
+    #[cfg(feature = "energy-guard")]
+    {
+        hdr.energy_known = guard && closed;
+        if guard {
+            hdr.energy_ref = energy - removed;
+        }
+    }
+    #[cfg(not(feature = "energy-guard"))]
+    let _ = (closed, energy);
     Ok(StepStats {
         cg_iterations: outcome.iterations,
         galerkin: !outcome.certified,
@@ -543,7 +569,8 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
 /// (with gravity and the ground) never trigger it.
 const GUARD_ROUNDING: f32 = 16.0 * f32::EPSILON;
 
-/// The energy guard's sums over the free nodes at the step's start.
+/// The energy guard's sums over the free nodes at the step's start, and
+/// the loads' net force and moment about the origin.
 #[derive(Clone, Copy, Default)]
 struct Ledger {
     /// `Σ m |v|²`.
@@ -552,6 +579,9 @@ struct Ledger {
     potential: f32,
     /// `Σ |(m g + f)·u|`.
     magnitude: f32,
+    /// `Σ f` and `Σ x × f` of the loads.
+    #[cfg(feature = "loads")]
+    loads: (Vec3, Vec3),
 }
 
 impl Ledger {
@@ -565,6 +595,54 @@ impl Ledger {
         let work = dot(weight, n.u) + dot(load, n.u);
         self.potential -= work;
         self.magnitude += work.abs();
+        #[cfg(feature = "loads")]
+        if n.flags & LOADED != 0 {
+            self.loads.0 = add(self.loads.0, load);
+            self.loads.1 = add(self.loads.1, cross(n.position(), load));
+        }
+    }
+
+    /// The external torque about `c`: the loads' (gravity has none about
+    /// the centre of mass, where `c` is taken).
+    fn torque(&self, c: Vec3) -> Vec3 {
+        #[cfg(feature = "loads")]
+        {
+            sub(self.loads.1, cross(c, self.loads.0))
+        }
+        #[cfg(not(feature = "loads"))]
+        {
+            let _ = c;
+            [0.0; 3]
+        }
+    }
+}
+
+/// Makes the angular momentum of an isolated body's new velocity
+/// `v' = v + Δv` (`Δv` in `x`) the exact step's: with internal forces and
+/// products free of net torque, `(1 + h α_M) L' = L + h τ` about the centre
+/// of mass (the guard's `δ` has no angular momentum). The difference is a
+/// rotation about the centre of mass, `ω = I⁻¹ (Σ r × m (v' − v/(1 + h α_M))
+/// − h τ/(1 + h α_M))`, taken out of `Δv`; the linear momentum is kept.
+fn keep_angular_momentum(
+    body: &Rigid,
+    nodes: &[Node],
+    work: &mut [NodeWork],
+    mass_coef: f32,
+    torque_h: Vec3,
+) {
+    let Some(inertia) = body.inertia else {
+        return;
+    };
+    let decay = 1.0 - 1.0 / mass_coef;
+    let (_, omega) = body.fit(nodes, work, |n, w| {
+        scale(add(w.x, scale(n.v, decay)), n.mass)
+    });
+    let external = solve3(&inertia, scale(torque_h, 1.0 / mass_coef)).unwrap_or([0.0; 3]);
+    let omega = sub(omega, external);
+    for (n, w) in nodes.iter().zip(work.iter_mut()) {
+        if n.flags & FIXED == 0 {
+            w.x = sub(w.x, cross(omega, sub(n.position(), body.c)));
+        }
     }
 }
 

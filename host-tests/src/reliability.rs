@@ -493,8 +493,8 @@ pub fn sweep_cases() -> Vec<(&'static str, Case)> {
     cases
 }
 
-/// One row of the sweep: the QR run, and the polar run of the same case
-/// when QR failed.
+/// One row of the sweep: the run of the swept method, and the polar run of
+/// the same case when it failed.
 pub type Row = (&'static str, Outcome, Option<Outcome>);
 
 fn result(o: &Outcome) -> String {
@@ -518,9 +518,10 @@ pub fn table(body: &Body, rows: &[Row]) -> String {
         .filter(|r| r.1.passed)
         .map(|r| r.1.recovery)
         .fold(0.0, f64::max);
+    let m = rows.first().map_or("qr", |r| r.1.method.name());
     s.push_str(&format!(
         "**{}** ({} nodes, {} tets, smallest rest dihedral angle {:.2}°, {} fixed and {} grabbed nodes, pulled {:.2} m): \
-         {} cases, {} passed with QR (worst recovery error {:.1e}); of the {} others, {} pass with the polar method\n\n",
+         {} cases, {} passed with `{m}` (worst recovery error {:.1e}); of the {} others, {} pass with the polar method\n\n",
         body.name,
         body.mesh.nodes.len(),
         body.mesh.tets.len(),
@@ -534,7 +535,7 @@ pub fn table(body: &Body, rows: &[Row]) -> String {
         rows.len() - passed,
         rescued,
     ));
-    s.push_str("| varied | E (Pa) | ν | dt (s) | CG | steps | max inverted | energy / tool work | recovery error | recovery time (s) | wall (s) | QR | polar, if QR failed |\n");
+    s.push_str(&format!("| varied | E (Pa) | ν | dt (s) | CG | steps | max inverted | energy / tool work | recovery error | recovery time (s) | wall (s) | {m} | polar, if {m} failed |\n"));
     s.push_str("|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
     for (what, o, polar) in rows {
         let c = o.case;

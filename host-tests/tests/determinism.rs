@@ -143,6 +143,8 @@ fn golden_hashes() {
         (Method::Polar, 0x6453_ca42_e76f_d8dc),
         (Method::Linear, 0x0347_d1c7_d212_c5e8),
         (Method::QrRestB, 0x3075_4d40_37bd_dc92),
+        // No element of the run inverts: `Qr`'s bits.
+        (Method::QrInvertible, 0x7378_35fc_564d_cfdf),
     ];
     assert_eq!(got, want);
 }

@@ -131,9 +131,25 @@ fn liver_pulled_until_elements_invert_recovers_after_release() {
     }
 }
 
-#[test]
-#[cfg_attr(not(shared_meshes), ignore = "needs ../shared/meshes")]
-fn zero_stiffness_bunny_crushed_on_the_ground_recovers_when_stiffened() {
+/// What [`crush_and_stiffen`] measures.
+struct Crushed {
+    /// Height after the crush (m) and the worst edge strain then.
+    height: f32,
+    crushed: f64,
+    /// Most elements inverted at once.
+    max_inverted: u32,
+    /// Worst edge strain, inverted elements, lowest node above the ground
+    /// (m) and kinetic energy (J) at the end.
+    err: f64,
+    inverted: u32,
+    below: f32,
+    ke: f32,
+}
+
+/// The paper's rabbit with `method`: a bunny without stiffness crushed flat
+/// on the ground by gravity, then stiffened to 1 MPa over 0.5 s and left to
+/// settle for 3 s.
+fn crush_and_stiffen(method: Method) -> Crushed {
     let mesh = shared_mesh("bunny_ftw_1k.tetmesh");
     let zmin = mesh.nodes.iter().map(|p| p[2]).fold(f32::MAX, f32::min);
     let mut scene = mesh.scene(&Material {
@@ -145,6 +161,7 @@ fn zero_stiffness_bunny_crushed_on_the_ground_recovers_when_stiffened() {
     // an ear folded flat by the crush stays folded (measured edge error 0.66).
     scene
         .set_settings(Settings {
+            method,
             dt: 1e-3,
             cg_iterations: 50,
             rayleigh_mass: 2.0,
@@ -176,21 +193,52 @@ fn zero_stiffness_bunny_crushed_on_the_ground_recovers_when_stiffened() {
     }
     assert_finite(&scene);
     let below = scene.positions().map(|p| p[2]).fold(f32::MAX, f32::min) - (zmin - 0.05);
-    let err = edge_error(&scene, &mesh);
-    eprintln!("bunny: crushed to {height:.4} m high (edge error {crushed:.2}), up to {max_inverted} inverted; stiffened: edge error {err:.2e}, {} inverted, lowest node {below:.2e} m above ground", scene.inverted_count());
-    assert!(height < 0.01, "zero stiffness must crush it flat: {height}");
-    // Raised to E = 1 MPa under gravity the bunny sags by ρ g H / E ≈ 1e-3
-    // on average, more where it rests on the few nodes touching the ground
-    // (measured worst edge 3%). Bound: 5% on the worst edge of 6000.
-    assert!(err < 0.05, "{err}");
-    assert_eq!(scene.inverted_count(), 0);
+    let out = Crushed {
+        height,
+        crushed,
+        max_inverted,
+        err: edge_error(&scene, &mesh),
+        inverted: scene.inverted_count(),
+        below,
+        ke: scene.kinetic_energy(),
+    };
+    eprintln!(
+        "bunny, {method:?}: crushed to {:.4} m high (edge error {:.2}), up to {} inverted; stiffened: edge error {:.2e}, {} inverted, lowest node {:.2e} m above ground, kinetic energy {:.2e} J",
+        out.height, out.crushed, out.max_inverted, out.err, out.inverted, out.below, out.ke
+    );
+    // Zero stiffness must crush it flat.
+    assert!(out.height < 0.01, "{method:?}: {}", out.height);
     // Resting on the ground, not sunk into it (f32 round-off of the plane test),
     // and at rest: the kinetic energy left is tiny next to the
     // potential energy (~1 J) a 1 kg bunny gains by standing up 0.1 m.
-    assert!(below > -1e-5, "{below}");
-    let ke = scene.kinetic_energy();
-    eprintln!("bunny: kinetic energy at the end {ke:.2e} J");
-    assert!(ke < 1e-3, "{ke}");
+    assert!(out.below > -1e-5, "{method:?}: {}", out.below);
+    assert!(out.ke < 1e-3, "{method:?}: {}", out.ke);
+    assert_eq!(out.inverted, 0, "{method:?}");
+    out
+}
+
+#[test]
+#[cfg_attr(not(shared_meshes), ignore = "needs ../shared/meshes")]
+fn zero_stiffness_bunny_crushed_on_the_ground_recovers_when_stiffened() {
+    let out = crush_and_stiffen(Method::Qr);
+    // Raised to E = 1 MPa under gravity the bunny sags by ρ g H / E ≈ 1e-3
+    // on average, more where it rests on the few nodes touching the ground
+    // (measured worst edge 2.1%). Bound: 5% on the worst edge of 6000.
+    assert!(out.err < 0.05, "{}", out.err);
+}
+
+/// The same with the methods that turn inverted elements by the closest
+/// rotation. They stand up too, but settle with more residual strain near
+/// the ground (measured: worst edge 5.35% with `QrInvertible`, 5.75% with
+/// `Polar`, against 2.06% with `Qr`; 30-odd elements above 2% against 3).
+/// The bound: recovered from the crush (worst edge 0.99) to within 10%.
+#[test]
+#[cfg_attr(not(shared_meshes), ignore = "needs ../shared/meshes")]
+fn zero_stiffness_bunny_recovers_with_the_closest_rotation_methods() {
+    for method in [Method::QrInvertible, Method::Polar] {
+        let out = crush_and_stiffen(method);
+        assert!(out.err < 0.10, "{method:?}: {}", out.err);
+    }
 }
 
 #[test]

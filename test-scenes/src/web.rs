@@ -638,7 +638,13 @@ pub fn hash_script() -> Result<u64, String> {
             h = h.wrapping_mul(0x0000_0100_0000_01b3);
         }
     };
-    let methods = [Method::Qr, Method::Polar, Method::Linear, Method::QrRestB];
+    let methods = [
+        Method::Qr,
+        Method::Polar,
+        Method::Linear,
+        Method::QrRestB,
+        Method::QrInvertible,
+    ];
 
     // 1. The beam, clamped, sags; its free end is picked from above, dragged
     //    down and sideways while the method changes; then released.

@@ -87,7 +87,7 @@ pub(crate) fn neg_stress_times<T: Real>(s: &Sym<T>, g: [T; 3]) -> [T; 3] {
 
 /// Energy `½ σ : ε` of the stress `s` and the gradient `h` it came from
 /// (J, when `s` comes from [`stress`] with `[λ', μ']`).
-#[cfg(any(feature = "polar", feature = "linear"))]
+#[cfg(any(feature = "polar", feature = "linear", feature = "qr-invertible"))]
 #[inline(always)]
 #[must_use]
 pub(crate) fn energy<T: Real>(s: &Sym<T>, h: &[[T; 3]; 3]) -> T {

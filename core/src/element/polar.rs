@@ -11,13 +11,22 @@
 //! lanes run its regular path together. Converged `R` makes `Rᵀ F`
 //! symmetric, which is why the polar method is free of ghost torques even
 //! with rest gradients.
+//!
+//! Without the feature `polar` only the one-element kernel is compiled: the
+//! `QrInvertible` method's inverted elements use it.
 
 use super::hform::{energy, grad_h, neg_stress_times, stress};
+#[cfg(feature = "polar")]
 use super::qr::regular;
+use super::rotation::closest_rotation;
+#[cfg(feature = "polar")]
 use super::rotation::{
-    closest_rotation, compose, len2, noise_floor2, norm2, probe, rotation, rt_times, MAX_ITERATIONS,
+    compose, len2, noise_floor2, norm2, probe, rotation, rt_times, MAX_ITERATIONS,
 };
-use super::{Batch, ElementForces, Kernel};
+#[cfg(feature = "polar")]
+use super::Batch;
+use super::{ElementForces, Kernel};
+#[cfg(feature = "polar")]
 use crate::lanes::LANES;
 use crate::math::{det3, mat_vec, Real, Vec3};
 
@@ -28,6 +37,7 @@ use crate::math::{det3, mat_vec, Real, Vec3};
 /// `Rᵀ F` and new `q` are the bits of [`closest_rotation`]. The other lanes
 /// (a zero `F`, a half turn or gradient step, Horn's method) are marked
 /// irregular, for the caller to redo alone from the same `q`.
+#[cfg(feature = "polar")]
 #[inline(always)]
 #[must_use]
 pub(crate) fn closest_rotation_lanes(f: &[[Batch; 3]; 3], q: [Batch; 4]) -> LaneRotations {
@@ -101,6 +111,7 @@ pub(crate) fn closest_rotation_lanes(f: &[[Batch; 3]; 3], q: [Batch; 4]) -> Lane
 }
 
 /// What [`closest_rotation_lanes`] returns, per lane.
+#[cfg(feature = "polar")]
 pub(crate) struct LaneRotations {
     /// The rotation `R` (rows).
     pub(crate) r: [[Batch; 3]; 3],

@@ -65,11 +65,17 @@ fn addr<T>(p: *const T) -> u32 {
     p as usize as u32
 }
 
-/// Method by page index: 0 Qr, 1 Polar, 2 Linear, 3 QrRestB.
+/// Method by page index: 0 Qr, 1 Polar, 2 Linear, 3 QrRestB, 4 QrInvertible.
 fn method(i: u32) -> Option<Method> {
-    [Method::Qr, Method::Polar, Method::Linear, Method::QrRestB]
-        .get(i as usize)
-        .copied()
+    [
+        Method::Qr,
+        Method::Polar,
+        Method::Linear,
+        Method::QrRestB,
+        Method::QrInvertible,
+    ]
+    .get(i as usize)
+    .copied()
 }
 
 fn install(s: &mut State, result: Result<App, String>, note: String) -> i32 {
@@ -154,7 +160,7 @@ pub extern "C" fn cf_message_len() -> u32 {
 }
 
 /// Sets the controls: Young's modulus (Pa), Poisson ratio, method (0 Qr,
-/// 1 Polar, 2 Linear, 3 QrRestB), time step (s), CG iterations, gravity
+/// 1 Polar, 2 Linear, 3 QrRestB, 4 QrInvertible), time step (s), CG iterations, gravity
 /// (0 off), preconditioner (0 mass, 1 block-Jacobi, 2 two-level). Kept for
 /// the next body too. Returns 0, or 1 with the error.
 #[allow(unsafe_code)]

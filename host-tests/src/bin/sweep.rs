@@ -79,6 +79,11 @@ fn main() {
     if wanted("slivers") {
         bodies.push(("slivers", reliability::sliver_beam()));
     }
+    // `COROFEM_SWEEP_METHOD=qr` (or another method's name) sweeps that
+    // method instead of the default one.
+    let method = std::env::var("COROFEM_SWEEP_METHOD").map_or(Method::DEFAULT, |m| {
+        Method::from_name(&m).unwrap_or_else(|| panic!("COROFEM_SWEEP_METHOD: no method {m:?}"))
+    });
     let (mut total, mut passed, mut rescued) = (0, 0, 0);
     for (key, body) in &bodies {
         let mut outcomes = Vec::new();
@@ -87,11 +92,11 @@ fn main() {
             None => reliability::sweep_cases(),
         };
         for (what, case) in cases {
-            let o = reliability::run_case(body, case, Method::Qr, budget);
+            let o = reliability::run_case(body, case, method, budget);
             print_outcome(body, what, &o);
             total += 1;
             passed += usize::from(o.passed);
-            // Where QR fails, the same case with the polar method.
+            // Where the method fails, the same case with the polar method.
             let polar = (!o.passed).then(|| {
                 let p = reliability::run_case(body, case, Method::Polar, budget);
                 print_outcome(body, what, &p);
@@ -109,7 +114,8 @@ fn main() {
         }
     }
     println!(
-        "sweep: {total} cases, {passed} passed with QR, {rescued} of the {} others pass with polar",
+        "sweep: {total} cases, {passed} passed with {}, {rescued} of the {} others pass with polar",
+        method.name(),
         total - passed
     );
 }
