@@ -109,6 +109,7 @@ pub fn settings(u: &mut Unstructured) -> Result<Settings> {
     } else {
         any3(u)?
     };
+    let energy_guard = u.arbitrary()?;
     Ok(Settings {
         method,
         dt,
@@ -119,6 +120,7 @@ pub fn settings(u: &mut Unstructured) -> Result<Settings> {
         warm_start,
         preconditioner,
         gravity,
+        energy_guard,
     })
 }
 
