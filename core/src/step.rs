@@ -438,8 +438,19 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
         && s.method == crate::Method::QrInvertible
     {
         if let Some(body) = Rigid::new(nodes, true) {
-            let torque_h = scale(ledger.torque(body.c), h);
-            keep_angular_momentum(&body, nodes, work, mass_coef, torque_h);
+            // The external torque about the centre of mass: the loads'
+            // (gravity has none there), summed only on this rare path.
+            #[allow(unused_mut)] // only the loads add to it
+            let mut torque = [0.0f32; 3];
+            #[cfg(feature = "loads")]
+            {
+                let mut forces = Entries::new(loads);
+                for n in nodes.iter() {
+                    let f = forces.at(n.flags, LOADED);
+                    torque = add(torque, cross(sub(n.position(), body.c), f));
+                }
+            }
+            keep_angular_momentum(&body, nodes, work, mass_coef, scale(torque, h));
         }
     }
 
@@ -569,8 +580,7 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
 /// (with gravity and the ground) never trigger it.
 const GUARD_ROUNDING: f32 = 16.0 * f32::EPSILON;
 
-/// The energy guard's sums over the free nodes at the step's start, and
-/// the loads' net force and moment about the origin.
+/// The energy guard's sums over the free nodes at the step's start.
 #[derive(Clone, Copy, Default)]
 struct Ledger {
     /// `Σ m |v|²`.
@@ -579,9 +589,6 @@ struct Ledger {
     potential: f32,
     /// `Σ |(m g + f)·u|`.
     magnitude: f32,
-    /// `Σ f` and `Σ x × f` of the loads.
-    #[cfg(feature = "loads")]
-    loads: (Vec3, Vec3),
 }
 
 impl Ledger {
@@ -595,25 +602,6 @@ impl Ledger {
         let work = dot(weight, n.u) + dot(load, n.u);
         self.potential -= work;
         self.magnitude += work.abs();
-        #[cfg(feature = "loads")]
-        if n.flags & LOADED != 0 {
-            self.loads.0 = add(self.loads.0, load);
-            self.loads.1 = add(self.loads.1, cross(n.position(), load));
-        }
-    }
-
-    /// The external torque about `c`: the loads' (gravity has none about
-    /// the centre of mass, where `c` is taken).
-    fn torque(&self, c: Vec3) -> Vec3 {
-        #[cfg(feature = "loads")]
-        {
-            sub(self.loads.1, cross(c, self.loads.0))
-        }
-        #[cfg(not(feature = "loads"))]
-        {
-            let _ = c;
-            [0.0; 3]
-        }
     }
 }
 

@@ -63,8 +63,9 @@ pub enum Method {
     /// closest to their deformation gradient instead, `det R = +1` (Irving,
     /// Teran and Fedkiw 2004: the smallest singular value changes sign),
     /// which pushes them back through themselves with the forces of an
-    /// energy. Elements that are not inverted get `Qr`'s bits and cost;
-    /// the step keeps the linear and angular momentum of an isolated body
+    /// energy. Elements that are not inverted get `Qr`'s bits, and while
+    /// none is, its cost (a block of elements with an inverted one is
+    /// finished element by element); the step keeps the linear and angular momentum of an isolated body
     /// exact as `Qr` does. Feature `qr-invertible` (which includes `qr`).
     ///
     /// Measured (docs/reliability.md): it recovers a soft liver that `Qr`

@@ -143,8 +143,14 @@ pub(crate) fn forces<const CURRENT_B: bool>(
     rest: &Local,
     lame: [f32; 2],
 ) -> ElementForces {
-    let fr = frame(ab, ac, ad);
-    let k = in_frame::<f32, CURRENT_B>(&fr, rest, lame);
+    from_frame::<CURRENT_B>(&frame(ab, ac, ad), rest, lame)
+}
+
+/// [`forces`] once the frame is known.
+#[inline(always)]
+#[must_use]
+fn from_frame<const CURRENT_B: bool>(fr: &Frame, rest: &Local, lame: [f32; 2]) -> ElementForces {
+    let k = in_frame::<f32, CURRENT_B>(fr, rest, lame);
     ElementForces {
         f: k.f,
         grad: k.grad,
@@ -181,9 +187,10 @@ pub(crate) fn forces_invertible(
     rest: &Local,
     lame: [f32; 2],
 ) -> ElementForces {
-    let qr = forces::<true>(ab, ac, ad, rest, lame);
-    if !qr.inverted {
-        return qr;
+    let fr = frame(ab, ac, ad);
+    // The test of `from_frame`'s `inverted` (a NaN coordinate takes QR's path).
+    if !(fr.local[5] < 0.0) {
+        return from_frame::<true>(&fr, rest, lame);
     }
     let [xb, xc, yc, xd, yd, zd] = *rest;
     let rest_edges = [[xb, 0.0, 0.0], [xc, yc, 0.0], [xd, yd, zd]];
