@@ -8,7 +8,9 @@
 //! Scenes: `beam`, `liver`, `bunny` (the report's), `liver3k`, `bunny3k`.
 //! `RUNS="mass:5 two-level:3"` chooses the preconditioners and CG
 //! iterations to measure; an entry `two-level:4:0.2` also sets the CG
-//! tolerance.
+//! tolerance. The warm start is on for every preconditioner but `mass`;
+//! `WARM=0` (or `1`) sets it for every run; `GUARD=0` turns the energy guard
+//! off.
 //! Each line gives the preconditioner, CG iterations, mean ms per step (the
 //! first step, which prepares the preconditioner, apart), the CG iterations
 //! that ran per step (the energy certificate may add some), the steps that
@@ -92,6 +94,15 @@ fn main() {
             let mut sc = d.core_with(Method::Qr, dt as f32, cg, pre);
             let mut settings = *sc.settings();
             settings.cg_tolerance = tol;
+            // `WARM=0` (or `1`) overrides the warm start, which is on for
+            // every preconditioner but the mass.
+            if let Ok(w) = std::env::var("WARM") {
+                settings.warm_start = w != "0";
+            }
+            // `GUARD=0` turns the energy guard off.
+            if let Ok(g) = std::env::var("GUARD") {
+                settings.energy_guard = g != "0";
+            }
             sc.set_settings(settings).expect("a valid tolerance");
             let (mut e, mut secs) = (0.0f64, 0.0f64);
             let mut diverged = false;

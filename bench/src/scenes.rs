@@ -143,9 +143,12 @@ impl SceneDef {
     }
 
     /// A built core scene with these settings' method, dt and CG budget,
-    /// and the default preconditioner (with its warm start).
+    /// and the paper's CG (the lumped mass, from zero): what the report's
+    /// speed-against-error grid, scaling and peer runs measure. The default
+    /// solver (`two-level`, warm) is measured against it by
+    /// `examples/solver_error.rs` (docs/bench.md, "Preconditioners").
     pub fn core(&self, method: Method, dt: f32, cg_iterations: u32) -> VecScene {
-        self.core_with(method, dt, cg_iterations, Preconditioner::DEFAULT)
+        self.core_with(method, dt, cg_iterations, Preconditioner::Mass)
     }
 
     /// The same with the preconditioner `pre`, warm-started unless it is the

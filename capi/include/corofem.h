@@ -134,11 +134,14 @@ typedef struct {
 
 // How the scene is stepped (see `corofem_settings_default` for the defaults).
 typedef struct {
-    // Element method code (`COROFEM_METHOD_*`). Default QR.
+    // Element method code (`COROFEM_METHOD_*`). Default QR with inverted
+    // elements turned back (`COROFEM_METHOD_QR_INVERTIBLE`) where compiled
+    // in, else QR.
     uint32_t method;
     // Time step (s, > 0). Default 0.001.
     float dt;
-    // CG iterations per step: the budget (≥ 1). Default 5. A step runs more,
+    // CG iterations per step: the budget (≥ 1). Default 4 with the two-level
+    // preconditioner, 5 with mass. A step runs more,
     // up to 2 cg_iterations + 16 and a Galerkin step, only where stopping
     // there would add energy to the body.
     uint32_t cg_iterations;
@@ -149,11 +152,13 @@ typedef struct {
     float rayleigh_mass;
     // Stiffness-proportional Rayleigh damping (s, ≥ 0). Default 0.
     float rayleigh_stiffness;
-    // Nonzero: start CG from the last step's velocity change. Default 0.
+    // Nonzero: start CG from the last step's velocity change. Default 1
+    // with the two-level preconditioner, 0 with mass.
     uint32_t warm_start;
     // Gravity (m/s²). Default (0, 0, −9.81).
     float gravity[3];
-    // Preconditioner code (`COROFEM_PRECONDITIONER_*`). Default mass.
+    // Preconditioner code (`COROFEM_PRECONDITIONER_*`). Default two-level
+    // where compiled in, else mass.
     // `TWO_LEVEL` and `BLOCK_JACOBI` need a library built with the feature
     // `two-level` (the host default); otherwise `corofem_set_settings`
     // returns `COROFEM_UNSUPPORTED`.
@@ -319,8 +324,10 @@ corofem_status corofem_build(corofem_scene *scene,
 // `scene` is a handle (or null); the outputs are null or writable.
 corofem_status corofem_counts(corofem_scene *scene, size_t *out_nodes, size_t *out_tets);
 
-// Writes the default settings (no scene needed): QR, dt = 1 ms, 5 CG
-// iterations, no early stop, no damping, no warm start, gravity −9.81 m/s² along z.
+// Writes the default settings (no scene needed): QR with inverted elements
+// turned back (`qr-invertible`), dt = 1 ms, the two-level preconditioner with
+// 4 CG iterations from a warm start, no early stop, no damping, gravity
+// −9.81 m/s² along z, the energy guard on.
 //
 // # Safety
 //

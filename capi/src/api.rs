@@ -409,8 +409,10 @@ pub unsafe extern "C" fn corofem_counts(
     })())
 }
 
-/// Writes the default settings (no scene needed): QR, dt = 1 ms, 5 CG
-/// iterations, no early stop, no damping, no warm start, gravity −9.81 m/s² along z.
+/// Writes the default settings (no scene needed): QR with inverted elements
+/// turned back (`qr-invertible`), dt = 1 ms, the two-level preconditioner with
+/// 4 CG iterations from a warm start, no early stop, no damping, gravity
+/// −9.81 m/s² along z, the energy guard on.
 ///
 /// # Safety
 ///

@@ -94,11 +94,14 @@ pub struct Material {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Settings {
-    /// Element method code (`COROFEM_METHOD_*`). Default QR.
+    /// Element method code (`COROFEM_METHOD_*`). Default QR with inverted
+    /// elements turned back (`COROFEM_METHOD_QR_INVERTIBLE`) where compiled
+    /// in, else QR.
     pub method: u32,
     /// Time step (s, > 0). Default 0.001.
     pub dt: f32,
-    /// CG iterations per step: the budget (≥ 1). Default 5. A step runs more,
+    /// CG iterations per step: the budget (≥ 1). Default 4 with the two-level
+    /// preconditioner, 5 with mass. A step runs more,
     /// up to 2 cg_iterations + 16 and a Galerkin step, only where stopping
     /// there would add energy to the body.
     pub cg_iterations: u32,
@@ -109,18 +112,20 @@ pub struct Settings {
     pub rayleigh_mass: f32,
     /// Stiffness-proportional Rayleigh damping (s, ≥ 0). Default 0.
     pub rayleigh_stiffness: f32,
-    /// Nonzero: start CG from the last step's velocity change. Default 0.
+    /// Nonzero: start CG from the last step's velocity change. Default 1
+    /// with the two-level preconditioner, 0 with mass.
     pub warm_start: u32,
     /// Gravity (m/s²). Default (0, 0, −9.81).
     pub gravity: [f32; 3],
-    /// Preconditioner code (`COROFEM_PRECONDITIONER_*`). Default mass.
+    /// Preconditioner code (`COROFEM_PRECONDITIONER_*`). Default two-level
+    /// where compiled in, else mass.
     /// `TWO_LEVEL` and `BLOCK_JACOBI` need a library built with the feature
     /// `two-level` (the host default); otherwise `corofem_set_settings`
     /// returns `COROFEM_UNSUPPORTED`.
     pub preconditioner: u32,
     /// Nonzero: the energy guard (a step takes out of the body's
     /// deformation the energy the previous step made while nothing did work
-    /// on it). Default 1 in a library built with the feature `energy-guard`
+    /// on it and elements were inverted). Default 1 in a library built with the feature `energy-guard`
     /// (the host default), else 0; nonzero without it is refused
     /// (`COROFEM_INVALID_ARGUMENT`).
     pub energy_guard: u32,

@@ -22,9 +22,13 @@ struct Def {
 }
 
 fn base_settings() -> corofem_core::Settings {
+    // As the C example: QR and the paper's CG, 10 iterations, cold.
     corofem_core::Settings {
+        method: corofem_core::Method::Qr,
         dt: 0.001,
         cg_iterations: 10,
+        warm_start: false,
+        preconditioner: corofem_core::Preconditioner::Mass,
         ..corofem_core::Settings::default()
     }
 }

@@ -61,23 +61,31 @@ The scene file (TOML) and the result file (JSON) are described key by key in
 docs/scene-format.md. Among the scene keys:
   [mesh]   reorient = true          swap nodes of negatively oriented tets instead of
                                     rejecting the mesh (default false)
-  [solver] warm_start = true        start CG from the previous step's solution (no extra
-                                    cost; steps with ground contacts start cold; default false)
+  [solver] warm_start = false       start CG cold instead of from the previous step's
+                                    solution (the guess costs nothing; steps with ground
+                                    contacts, and steps after a solve that needed more than
+                                    its budget, start cold; default on with \"two-level\" and
+                                    \"block-jacobi\", off with \"mass\")
   [solver] energy_guard = false     turn off the energy guard (on by default): a step that
                                     finds the body with more energy than the last step left
-                                    it, while no tool or ground held it, first takes the
-                                    excess out of its deformation velocity (momentum kept)
-  [solver] preconditioner = \"mass\"  what preconditions CG: \"mass\" (the lumped mass, the
-                                    paper's CG; the default), \"block-jacobi\" (3x3 node blocks
-                                    of the system matrix) or \"two-level\" (node blocks plus
-                                    rigid-body modes of node aggregates, turned with the body)
+                                    it, while no tool or ground held it and elements were
+                                    inverted, first takes the excess out of its deformation
+                                    velocity (momentum kept)
+  [solver] preconditioner = \"mass\"  what preconditions CG: \"two-level\" (the default: node
+                                    blocks plus rigid-body modes of node aggregates, turned
+                                    with the body), \"block-jacobi\" (3x3 node blocks of the
+                                    system matrix) or \"mass\" (the lumped mass, the paper's
+                                    CG); it sets the defaults of cg_iterations and warm_start
   [solver] newton_iterations = 30   static solve: most Newton iterations
   [solver] newton_tolerance = 1e-5  static solve: out-of-balance force / load to stop at; it
                                     also stops when an update moves the body by at most 1e-4
                                     of its displacement and its CG solve reached cg_tolerance
-Defaults: [material] young 1e6, poisson 0.3, density 1000; [solver] method \"qr\",
-dt 0.001, cg_iterations 5 (400 for a static solve), cg_tolerance 0 (1e-4 static),
-no damping; [world] gravity [0, 0, -9.81]; [output] every 10; [tool] path [[0, 0, 0, 0]].
+Defaults: [material] young 1e6, poisson 0.3, density 1000; [solver] method
+\"qr-invertible\" (QR's bits wherever no element is inverted), dt 0.001,
+preconditioner \"two-level\" with cg_iterations 4 and warm_start true (\"mass\": 5, false;
+400 iterations for a static solve), cg_tolerance 0 (1e-4 static), no damping,
+energy_guard true; [world] gravity [0, 0, -9.81]; [output] every 10;
+[tool] path [[0, 0, 0, 0]].
 
 Result of a static solve: \"steps\" counts Newton iterations, \"static\" gives
 \"converged\", the rule met (\"met\": \"force\", \"update\" or null) and each rule's value

@@ -713,7 +713,24 @@ impl Ctx<'_> {
         w: &RawWorld,
     ) -> CliResult<(Settings, f64, u64, Option<StaticSpec>)> {
         const S: &str = "[solver]";
-        let d = Settings::default();
+        let preconditioner = match &s.preconditioner {
+            None => Preconditioner::DEFAULT,
+            Some(name) => Preconditioner::from_name(name).ok_or_else(|| {
+                self.bad(
+                    "[solver]",
+                    "preconditioner",
+                    format!("{name:?}"),
+                    format!(
+                        "one of {}",
+                        Preconditioner::VARIANTS
+                            .map(|p| format!("{:?}", p.name()))
+                            .join(", ")
+                    ),
+                )
+            })?,
+        };
+        // The budget and the warm start default to the preconditioner's own.
+        let d = Settings::with_preconditioner(preconditioner);
         let method = match &s.method {
             None => Method::DEFAULT,
             Some(name) => self.method(name, Method::COMPILED)?,
@@ -805,22 +822,7 @@ impl Ctx<'_> {
             rayleigh_stiffness,
             warm_start: s.warm_start.unwrap_or(d.warm_start),
             energy_guard: s.energy_guard.unwrap_or(d.energy_guard),
-            preconditioner: match &s.preconditioner {
-                None => d.preconditioner,
-                Some(name) => Preconditioner::from_name(name).ok_or_else(|| {
-                    self.bad(
-                        "[solver]",
-                        "preconditioner",
-                        format!("{name:?}"),
-                        format!(
-                            "one of {}",
-                            Preconditioner::VARIANTS
-                                .map(|p| format!("{:?}", p.name()))
-                                .join(", ")
-                        ),
-                    )
-                })?,
-            },
+            preconditioner,
             gravity,
         };
         let static_solve = if is_static {
@@ -984,8 +986,19 @@ mod tests {
         assert_eq!(s.steps, 3);
         assert_eq!(s.every, DEFAULT_EVERY);
         assert_eq!(s.material, Material::DEFAULT);
-        assert_eq!(s.settings.method, Method::Qr);
+        assert_eq!(s.settings, Settings::default());
+        assert_eq!(s.settings.method, Method::QrInvertible);
         assert!(s.static_solve.is_none());
+        // The paper's CG keeps its own budget: 5 cold iterations.
+        let s = parse_str("[solver]\nsteps = 3\npreconditioner = \"mass\"\n").unwrap();
+        assert_eq!(
+            s.settings,
+            Settings::with_preconditioner(Preconditioner::Mass)
+        );
+        assert_eq!(
+            (s.settings.cg_iterations, s.settings.warm_start),
+            (5, false)
+        );
     }
 
     #[test]

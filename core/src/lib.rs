@@ -57,7 +57,8 @@
 //! scene.build(&nodes[..n], &tets[..t], &material, BuildOptions::default()).unwrap();
 //! let fixed: Vec<u32> = (0..n as u32).filter(|&i| nodes[i as usize][0] == 0.0).collect();
 //! scene.fix_nodes(&fixed).unwrap();
-//! scene.set_settings(Settings { dt: 1.0e-3, cg_iterations: 5, ..Settings::default() }).unwrap();
+//! // The defaults this storage can run (it has no preconditioner slots).
+//! scene.set_settings(Settings { dt: 1.0e-3, ..scene.default_settings() }).unwrap();
 //! for _ in 0..100 {
 //!     let stats = scene.step().unwrap();
 //!     assert_eq!(stats.inverted, 0);
@@ -72,11 +73,12 @@
 //! | feature | what |
 //! |---|---|
 //! | `qr` (default) | the paper's QR method |
-//! | `qr-invertible` | the paper's QR method, with inverted elements turned by the closest proper rotation (brings `qr`) |
+//! | `qr-invertible` (default) | the default method: the paper's QR method, with inverted elements turned by the closest proper rotation (brings `qr`) |
 //! | `polar`, `linear` | the other element methods |
 //! | `qr-rest-b` | SOFA's QR method with `B` frozen at rest: a demonstration of ghost torques |
 //! | `ground`, `tool`, `loads`, `statics`, `diagnostics` | ground contact, haptic tool, constant nodal forces, static solve, energies and momenta (and [`StepStats::elastic_energy`]) |
-//! | `energy-guard` (default) | the energy guard ([`Settings::energy_guard`]): a step takes out of the body's deformation the energy the previous step made while nothing did work on it |
+//! | `energy-guard` (default) | the energy guard ([`Settings::energy_guard`]): a step takes out of the body's deformation the energy the previous step made while nothing did work on it and elements were inverted |
+//! | `two-level` (default) | the block-Jacobi and two-level preconditioners ([`Preconditioner`]); two-level, 4 CG iterations from a warm start, is then the default solver |
 //! | `alloc` | `VecStorage` and `VecScene`: storage in `Vec`s, sized at run time (the solver never allocates) |
 //! | `full` | all of the above |
 //! | `libm` (default) / `micromath` | math backend: correctly rounded / fast and approximate; `libm` wins when both are on, one is needed |

@@ -68,6 +68,10 @@ pub(crate) struct Header {
     /// step prepares them).
     #[cfg(feature = "two-level")]
     pub(crate) coarse_ready: bool,
+    /// The last step's solve needed more than its budget (its truncation
+    /// had no energy certificate): its solution is no guess for the next
+    /// step, which starts cold (`step::step`).
+    pub(crate) guess_stale: bool,
     /// The energy guard's reference (J): the body's energy after the last
     /// step's check, valid while `energy_known` (`step::Correction`).
     #[cfg(feature = "energy-guard")]
@@ -114,8 +118,8 @@ impl Header {
     /// among them) keeps only the test.
     #[cold]
     #[inline(never)]
-    fn write_default_settings(&mut self) {
-        self.settings = Settings::new();
+    fn write_default_settings(&mut self, settings: Settings) {
+        self.settings = settings;
         self.settings_valid = true;
     }
 
@@ -161,6 +165,7 @@ impl Header {
         n_aggs: 0,
         #[cfg(feature = "two-level")]
         coarse_ready: false,
+        guess_stale: false,
         #[cfg(feature = "energy-guard")]
         energy_ref: 0.0,
         #[cfg(feature = "energy-guard")]
@@ -313,7 +318,8 @@ impl<S: Storage> Scene<S> {
     #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
     pub(crate) fn view(&mut self) -> View<'_> {
         if !self.hdr.settings_valid {
-            self.hdr.write_default_settings();
+            let defaults = self.default_settings();
+            self.hdr.write_default_settings(defaults);
         }
         let (n, e) = (self.hdr.n_nodes, self.hdr.n_elems);
         #[cfg(feature = "tool")]
@@ -542,14 +548,36 @@ impl<S: Storage> Scene<S> {
         self.hdr.n_elems
     }
 
-    /// The step settings ([`Settings::default`] until set).
+    /// The step settings ([`Scene::default_settings`] until set).
     #[must_use]
     pub fn settings(&self) -> &Settings {
-        const DEFAULTS: Settings = Settings::new();
         if self.hdr.settings_valid {
             &self.hdr.settings
         } else {
+            self.defaults()
+        }
+    }
+
+    /// The default settings for this scene's storage: [`Settings::new`]
+    /// where the storage holds the default preconditioner's slots (a
+    /// [`VecScene`], or storage made with them), else
+    /// [`Settings::with_preconditioner`]`(Preconditioner::Mass)`, the
+    /// paper's CG. What the scene steps with until
+    /// [`Scene::set_settings`]; start custom settings from it
+    /// (`Settings { dt, ..scene.default_settings() }`) to keep what the
+    /// storage can run.
+    #[must_use]
+    pub fn default_settings(&self) -> Settings {
+        *self.defaults()
+    }
+
+    fn defaults(&self) -> &'static Settings {
+        const DEFAULTS: Settings = Settings::new();
+        const MASS: Settings = Settings::with_preconditioner(Preconditioner::Mass);
+        if self.supports(Preconditioner::DEFAULT) {
             &DEFAULTS
+        } else {
+            &MASS
         }
     }
 
@@ -1243,7 +1271,23 @@ mod tests {
         }
         #[cfg(feature = "loads")]
         assert_eq!(h.n_loads, 0);
-        assert_eq!(*Cube::new().settings(), Settings::default());
+        // A storage without preconditioner slots steps with the paper's
+        // CG; the rest of the defaults are `Settings::new()`'s.
+        let defaults = Cube::new().default_settings();
+        assert_eq!(*Cube::new().settings(), defaults);
+        assert_eq!(
+            defaults,
+            Settings::with_preconditioner(crate::Preconditioner::Mass)
+        );
+        assert_eq!(
+            defaults,
+            Settings {
+                preconditioner: crate::Preconditioner::Mass,
+                cg_iterations: 5,
+                warm_start: false,
+                ..Settings::new()
+            }
+        );
     }
 
     /// A scene whose settings were never set steps with the defaults: the
@@ -1252,7 +1296,7 @@ mod tests {
     fn unset_settings_step_as_the_defaults() {
         let mut unset = cube();
         let mut given = cube();
-        given.set_settings(Settings::default()).unwrap();
+        given.set_settings(given.default_settings()).unwrap();
         for _ in 0..3 {
             let (a, b) = (unset.step().unwrap(), given.step().unwrap());
             assert_eq!(a.cg_iterations, b.cg_iterations);
@@ -1260,6 +1304,17 @@ mod tests {
         }
         assert_eq!(unset.state_hash(), given.state_hash());
         assert_eq!(unset.time(), 3.0 * f64::from(Settings::default().dt));
+        // Where the default preconditioner needs slots the storage lacks,
+        // asking for it is refused and changes nothing.
+        if !given.supports(crate::Preconditioner::DEFAULT) {
+            assert_eq!(
+                given.set_settings(Settings::new()),
+                Err(Error::PreconditionerUnavailable {
+                    preconditioner: crate::Preconditioner::DEFAULT
+                })
+            );
+            assert_eq!(unset.settings(), given.settings());
+        }
         assert_eq!(unset.settings(), given.settings());
     }
 

@@ -35,8 +35,13 @@ impl Preconditioner {
         Preconditioner::TwoLevel,
     ];
 
-    /// The default: `Mass`, the paper's CG.
-    pub const DEFAULT: Preconditioner = Preconditioner::Mass;
+    /// The default: `TwoLevel` where the feature `two-level` is compiled in,
+    /// else `Mass`, the paper's CG.
+    pub const DEFAULT: Preconditioner = if cfg!(feature = "two-level") {
+        Preconditioner::TwoLevel
+    } else {
+        Preconditioner::Mass
+    };
 
     /// The scene-file name: `"mass"`, `"block-jacobi"` or `"two-level"`.
     #[must_use]
@@ -72,11 +77,14 @@ impl Default for Preconditioner {
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Settings {
     /// Element method; one that is not compiled in is refused
-    /// ([`Error::MethodNotCompiled`]). Default `Qr` (when compiled in).
+    /// ([`Error::MethodNotCompiled`]). Default [`Method::DEFAULT`]:
+    /// `QrInvertible` where compiled in, else `Qr`.
     pub method: Method,
     /// Time step `h` (s, `> 0`). Default 0.001.
     pub dt: f32,
-    /// Conjugate-gradient iterations per step (`≥ 1`): the budget. Default 5.
+    /// Conjugate-gradient iterations per step (`≥ 1`): the budget. Default 4
+    /// where the default preconditioner is `TwoLevel` (feature `two-level`),
+    /// else 5.
     ///
     /// A solve stops at the budget only where its truncation adds no energy
     /// to the body (the step's energy certificate, checked with one pass
@@ -105,7 +113,7 @@ pub struct Settings {
     /// product takes the velocity plus the guess. Steps with ground
     /// contacts start cold. A guess cannot add energy: the energy
     /// certificate of [`Settings::cg_iterations`] holds for every start.
-    /// Default off.
+    /// Default on where the default preconditioner is `TwoLevel`, else off.
     pub warm_start: bool,
     /// What preconditions CG. Default [`Preconditioner::DEFAULT`].
     pub preconditioner: Preconditioner,
@@ -113,15 +121,19 @@ pub struct Settings {
     pub gravity: Vec3,
     /// The energy guard: a step whose start finds the body with more energy
     /// (kinetic, elastic, and the potential of gravity and the loads) than
-    /// the previous step left it, while nothing did work on it, first takes
-    /// the excess out of the velocity's deformation part, keeping the
-    /// linear and angular momentum ([`StepStats::energy_removed`]). Nothing
-    /// does work in a step in which no tool and no ground holds the body
-    /// (the ground's held nodes, its impact and its projection do work) and
-    /// after which no call changed the scene. It stops the energy that
-    /// `Qr`'s forces feed in once many elements invert (they are not the
-    /// gradient of an energy there) and any energy a linearised step makes
-    /// in a fast-turning body. It costs the elastic energy's sum in the
+    /// the previous step left it, while nothing did work on it and elements
+    /// were inverted, first takes the excess out of the velocity's
+    /// deformation part, keeping the linear and angular momentum
+    /// ([`StepStats::energy_removed`]). Nothing does work in a step in which
+    /// no tool and no ground holds the body (the ground's held nodes, its
+    /// impact and its projection do work) and after which no call changed
+    /// the scene. It stops the energy that `Qr`'s forces feed in once
+    /// elements invert (they are not the gradient of an energy there).
+    /// Steps without inverted elements are left as the implicit step makes
+    /// them: the energy measured is not one the co-rotational step conserves
+    /// exactly, and taking out what it gains there would take the motion
+    /// away from the implicit step's (a hanging liver's swing by 11 %,
+    /// docs/bench.md). It costs the elastic energy's sum in the
     /// force pass and one pass over the nodes; a correction, which a step
     /// that makes no energy never needs, one pass more. Needs the feature
     /// `energy-guard` (default on in builds with it, else off; `true`
@@ -130,18 +142,34 @@ pub struct Settings {
 }
 
 impl Settings {
-    /// The documented defaults.
+    /// The documented defaults: [`Settings::with_preconditioner`] of
+    /// [`Preconditioner::DEFAULT`]. A storage without the two-level
+    /// preconditioner's slots (a plain [`StaticScene`](crate::StaticScene))
+    /// refuses them where the feature `two-level` is on
+    /// ([`Error::PreconditionerUnavailable`]); start such a scene's settings
+    /// from [`Scene::default_settings`](crate::Scene::default_settings).
     #[must_use]
     pub const fn new() -> Self {
+        Self::with_preconditioner(Preconditioner::DEFAULT)
+    }
+
+    /// The documented defaults with preconditioner `pre` and its budget:
+    /// 5 CG iterations from a cold start for `Mass` (the paper's CG), 4 from
+    /// a warm start for the preconditioners that see stiffness (within 1 %
+    /// of converged implicit steps on the benchmark scenes, at about the
+    /// cost of the paper's 5: docs/bench.md).
+    #[must_use]
+    pub const fn with_preconditioner(pre: Preconditioner) -> Self {
+        let stiffness_aware = !matches!(pre, Preconditioner::Mass);
         Self {
             method: Method::DEFAULT,
             dt: 1.0e-3,
-            cg_iterations: 5,
+            cg_iterations: if stiffness_aware { 4 } else { 5 },
             cg_tolerance: 0.0,
             rayleigh_mass: 0.0,
             rayleigh_stiffness: 0.0,
-            warm_start: false,
-            preconditioner: Preconditioner::DEFAULT,
+            warm_start: stiffness_aware,
+            preconditioner: pre,
             gravity: [0.0, 0.0, -9.81],
             energy_guard: cfg!(feature = "energy-guard"),
         }

@@ -274,6 +274,9 @@ pub fn run_case_guarded(
                 })
             },
         ),
+        // `COROFEM_SWEEP_WARM_START=0` (or `1`) overrides the default.
+        warm_start: std::env::var("COROFEM_SWEEP_WARM_START")
+            .map_or(Settings::default().warm_start, |w| w != "0"),
         energy_guard,
         ..Settings::default()
     };

@@ -558,7 +558,7 @@ fn refused_or_rest_is_equilibrium(nodes: &[[f32; 3]], tet: [u32; 4], material: &
                 let before = s.state_hash();
                 s.set_settings(Settings {
                     gravity: [0.0; 3],
-                    ..Settings::default()
+                    ..s.default_settings()
                 })
                 .unwrap();
                 assert!(s.step().is_ok());
@@ -601,7 +601,7 @@ fn regression_step_whose_position_overflows_is_refused() {
         dt: 0.0061875004,
         cg_iterations: 7,
         gravity: [-7.668923e-16, -3.0316488e-13, 2.655521e36],
-        ..Settings::default()
+        ..s.default_settings()
     })
     .unwrap();
     let mut refused = 0;

@@ -4,7 +4,8 @@
 //! if the change is intended, record the new values and say why in the commit.
 
 use corofem::{
-    BoxMesh, BuildOptions, InstructionSet, Material, Method, Plane, Settings, StaticScene,
+    BoxMesh, BuildOptions, InstructionSet, Material, Method, Plane, Preconditioner, Settings,
+    StaticScene,
 };
 
 /// A beam held at one end, pulled by the tool, touching the ground, with
@@ -44,7 +45,7 @@ fn run(method: Method, isa: InstructionSet) -> u64 {
         rayleigh_mass: 0.5,
         rayleigh_stiffness: 1e-3,
         warm_start: true,
-        ..Settings::default()
+        ..Settings::with_preconditioner(Preconditioner::Mass)
     })
     .unwrap();
     s.set_instruction_set(Some(isa)).unwrap();
@@ -178,7 +179,7 @@ fn fast_step_has_the_bits_of_the_baseline_when_elements_invert() {
                 cg_iterations: 5,
                 rayleigh_mass: 1.0,
                 rayleigh_stiffness: 0.02,
-                ..Settings::default()
+                ..Settings::with_preconditioner(Preconditioner::Mass)
             })
             .unwrap();
             s.fix_nodes(&[3, 39, 64]).unwrap();

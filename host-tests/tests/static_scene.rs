@@ -1,11 +1,12 @@
 //! A scene in a `static`: `StaticScene::new` is a `const fn` whose value is
 //! all zero bits, so that on a microcontroller the scene lands in `.bss`
 //! and costs no flash (`.ci/firmware.sh` checks the firmware's sections).
-//! Its settings read as the defaults until set, and it steps with them.
+//! Its settings read as the defaults for its storage until set (the
+//! paper's CG: it has no preconditioner slots), and it steps with them.
 
 use std::sync::Mutex;
 
-use corofem::{Settings, StaticScene};
+use corofem::{Error, Preconditioner, Settings, StaticScene};
 use corofem_host_tests::build_box;
 
 /// A 2×2×2-cell block (27 nodes, 48 tetrahedra), 4 grab slots.
@@ -26,13 +27,25 @@ fn build(s: &mut Block) {
 #[test]
 fn a_static_scene_has_the_default_settings_and_steps_with_them() {
     let mut scene = SCENE.lock().unwrap();
-    assert_eq!(*scene.settings(), Settings::default());
+    let defaults = Settings::with_preconditioner(Preconditioner::Mass);
+    assert_eq!(scene.default_settings(), defaults);
+    assert_eq!(*scene.settings(), defaults);
     build(&mut scene);
-    assert_eq!(*scene.settings(), Settings::default());
+    assert_eq!(*scene.settings(), defaults);
 
     let mut given = Box::new(Block::new());
     build(&mut given);
-    given.set_settings(Settings::default()).unwrap();
+    // The solver's own default preconditioner needs slots this storage
+    // does not have: refused, by name.
+    if Preconditioner::DEFAULT != Preconditioner::Mass {
+        assert_eq!(
+            given.set_settings(Settings::default()),
+            Err(Error::PreconditionerUnavailable {
+                preconditioner: Preconditioner::DEFAULT
+            })
+        );
+    }
+    given.set_settings(defaults).unwrap();
     for _ in 0..10 {
         scene.step().unwrap();
         given.step().unwrap();

@@ -42,7 +42,8 @@ compile_error!(
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Method {
     /// The paper's method: QR frame, `B` recomputed from the current shape every
-    /// step (no ghost forces, no ghost torques). The default. Feature `qr`.
+    /// step (no ghost forces, no ghost torques). The default where
+    /// `qr-invertible` is not compiled in. Feature `qr`.
     /// Its forces
     /// on an inverted element are not the gradient of an energy: with many
     /// elements inverted and light damping they feed energy in, and a body
@@ -66,7 +67,8 @@ pub enum Method {
     /// energy. Elements that are not inverted get `Qr`'s bits, and while
     /// none is, its cost (a block of elements with an inverted one is
     /// finished element by element); the step keeps the linear and angular momentum of an isolated body
-    /// exact as `Qr` does. Feature `qr-invertible` (which includes `qr`).
+    /// exact as `Qr` does. The default where compiled in. Feature
+    /// `qr-invertible` (which includes `qr`; a default feature).
     ///
     /// Measured (docs/reliability.md): it recovers a soft liver that `Qr`
     /// blows up on or leaves folded, at `Qr`'s cost while no element is
@@ -83,16 +85,24 @@ impl Default for Method {
 }
 
 impl Method {
-    /// `Qr` when compiled in, otherwise the first compiled method.
-    #[cfg(feature = "qr")]
+    /// `QrInvertible` when compiled in, else `Qr`, otherwise the first
+    /// compiled method.
+    #[cfg(feature = "qr-invertible")]
+    pub const DEFAULT: Method = Method::QrInvertible;
+    /// `QrInvertible` when compiled in, else `Qr`, otherwise the first
+    /// compiled method.
+    #[cfg(all(not(feature = "qr-invertible"), feature = "qr"))]
     pub const DEFAULT: Method = Method::Qr;
-    /// `Qr` when compiled in, otherwise the first compiled method.
+    /// `QrInvertible` when compiled in, else `Qr`, otherwise the first
+    /// compiled method.
     #[cfg(all(not(feature = "qr"), feature = "polar"))]
     pub const DEFAULT: Method = Method::Polar;
-    /// `Qr` when compiled in, otherwise the first compiled method.
+    /// `QrInvertible` when compiled in, else `Qr`, otherwise the first
+    /// compiled method.
     #[cfg(all(not(feature = "qr"), not(feature = "polar"), feature = "linear"))]
     pub const DEFAULT: Method = Method::Linear;
-    /// `Qr` when compiled in, otherwise the first compiled method.
+    /// `QrInvertible` when compiled in, else `Qr`, otherwise the first
+    /// compiled method.
     #[cfg(all(
         not(feature = "qr"),
         not(feature = "polar"),
