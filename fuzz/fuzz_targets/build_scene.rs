@@ -110,7 +110,7 @@ fn run(u: &mut Unstructured) -> Result<()> {
             // The rest shape is an exact equilibrium.
             s.set_settings(Settings {
                 gravity: [0.0; 3],
-                ..Settings::default()
+                ..s.default_settings()
             })
             .unwrap();
             let rest = s.state_hash();
