@@ -165,7 +165,7 @@ typedef struct {
     uint32_t preconditioner;
     // Nonzero: the energy guard (a step takes out of the body's
     // deformation the energy the previous step made while nothing did work
-    // on it). Default 1 in a library built with the feature `energy-guard`
+    // on it and elements were inverted). Default 1 in a library built with the feature `energy-guard`
     // (the host default), else 0; nonzero without it is refused
     // (`COROFEM_INVALID_ARGUMENT`).
     uint32_t energy_guard;

@@ -180,6 +180,7 @@ fn run_capi(d: &Def, steps: u32) -> (u64, [f32; 3]) {
         set.gravity = d.settings.gravity;
         set.warm_start = u32::from(d.settings.warm_start);
         // The C codes are the core's discriminants.
+        set.method = d.settings.method as u32;
         set.preconditioner = d.settings.preconditioner as u32;
         assert_eq!(corofem_capi::corofem_set_settings(h, &set), Status::Ok);
         let mut back = std::mem::zeroed::<Settings>();
