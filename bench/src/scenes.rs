@@ -178,7 +178,7 @@ impl SceneDef {
                 cg_tolerance: 0.0,
                 rayleigh_mass: self.rayleigh_mass,
                 rayleigh_stiffness: self.rayleigh_stiffness,
-                warm_start: pre != Preconditioner::Mass,
+                warm_start: Settings::with_preconditioner(pre).warm_start,
                 preconditioner: pre,
                 gravity: self.gravity,
                 // As in a default scene.

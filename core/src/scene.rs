@@ -1313,7 +1313,6 @@ mod tests {
                     preconditioner: crate::Preconditioner::DEFAULT
                 })
             );
-            assert_eq!(unset.settings(), given.settings());
         }
         assert_eq!(unset.settings(), given.settings());
     }

@@ -250,6 +250,18 @@ pub fn run_case_guarded(
     let length = body.size;
     let e_eff = f64::from(if case.young > 0.0 { case.young } else { 3.0e4 });
     let omega = (0.5 * (e_eff / f64::from(body.density)).sqrt() / length).max(1.0);
+    // `COROFEM_SWEEP_PRECONDITIONER=mass` (or `block-jacobi`) runs the sweep
+    // with another preconditioner than the default, with that
+    // preconditioner's own warm-start default. A name that is not one is an
+    // error, not a silent default.
+    let preconditioner = std::env::var("COROFEM_SWEEP_PRECONDITIONER").map_or(
+        corofem::Preconditioner::DEFAULT,
+        |p| {
+            corofem::Preconditioner::from_name(&p)
+                .unwrap_or_else(|| panic!("COROFEM_SWEEP_PRECONDITIONER: no preconditioner {p:?}"))
+        },
+    );
+    let defaults = Settings::with_preconditioner(preconditioner);
     let settings = Settings {
         method,
         dt: case.dt,
@@ -263,22 +275,11 @@ pub fn run_case_guarded(
             .and_then(|a| a.parse().ok())
             .unwrap_or(ALPHA_K),
         gravity: [0.0; 3],
-        // `COROFEM_SWEEP_PRECONDITIONER=two-level` (or `block-jacobi`) runs
-        // the sweep with another preconditioner than the default.
-        // A name that is not one is an error, not a silent default.
-        preconditioner: std::env::var("COROFEM_SWEEP_PRECONDITIONER").map_or(
-            corofem::Preconditioner::default(),
-            |p| {
-                corofem::Preconditioner::from_name(&p).unwrap_or_else(|| {
-                    panic!("COROFEM_SWEEP_PRECONDITIONER: no preconditioner {p:?}")
-                })
-            },
-        ),
         // `COROFEM_SWEEP_WARM_START=0` (or `1`) overrides the default.
         warm_start: std::env::var("COROFEM_SWEEP_WARM_START")
-            .map_or(Settings::default().warm_start, |w| w != "0"),
+            .map_or(defaults.warm_start, |w| w != "0"),
         energy_guard,
-        ..Settings::default()
+        ..defaults
     };
     if let Err(e) = scene.set_settings(settings) {
         outcome.note = format!("settings refused: {e}");

@@ -57,20 +57,18 @@ pub const fn settings() -> Settings {
 /// costs about as much on a host.
 #[must_use]
 pub const fn settings_with(pre: Preconditioner) -> Settings {
-    let stiff = !matches!(pre, Preconditioner::Mass);
     Settings {
         method: Method::Qr,
         dt: 1.0e-3,
-        cg_iterations: if stiff { 4 } else { 5 },
-        cg_tolerance: 0.0,
         rayleigh_mass: 1.0,
         rayleigh_stiffness: 1.0e-3,
-        warm_start: stiff,
-        preconditioner: pre,
         gravity: [0.0; 3],
         // Firmware images leave the feature out (its energy sum costs
         // ~48 instructions per tetrahedron-step).
         energy_guard: false,
+        // The budget (5 or 4), tolerance 0 and warm start (off for the
+        // mass) of the preconditioner.
+        ..Settings::with_preconditioner(pre)
     }
 }
 

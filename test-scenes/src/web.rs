@@ -158,7 +158,7 @@ impl Params {
             cg_iterations: self.cg_iterations,
             rayleigh_stiffness: self.damping,
             preconditioner: self.preconditioner,
-            warm_start: self.preconditioner != Preconditioner::Mass,
+            warm_start: Settings::with_preconditioner(self.preconditioner).warm_start,
             gravity: if self.gravity {
                 [0.0, 0.0, -9.81]
             } else {
