@@ -528,17 +528,30 @@ fn coarse_solve(aggs: &mut [Aggregate], coarse: &mut [CoarseBlock]) {
     for b in z.iter_mut() {
         *b = CoarseBlock::EMPTY;
     }
-    for (k, a) in aggs.iter().enumerate() {
-        let rows: [&[CoarseBlock]; 6] = core::array::from_fn(|r| row(mat, st, 6 * k + r));
-        for (b, zb) in z.iter_mut().enumerate() {
+    // The rows zipped with the vector's blocks: no bounds check in the
+    // inner loop.
+    let mut rows = mat
+        .chunks_exact(st.max(1))
+        .zip(aggs.iter().flat_map(|a| a.y));
+    loop {
+        let mut next = || rows.next();
+        let (Some((r0, y0)), Some((r1, y1)), Some((r2, y2))) = (next(), next(), next()) else {
+            break;
+        };
+        let (Some((r3, y3)), Some((r4, y4)), Some((r5, y5))) = (next(), next(), next()) else {
+            break;
+        };
+        let lanes = z.iter_mut().zip(r0).zip(r1).zip(r2).zip(r3).zip(r4).zip(r5);
+        for ((((((zb, x0), x1), x2), x3), x4), x5) in lanes {
             let mut acc = zb.m;
-            for (r, s) in rows.iter().zip(a.y) {
-                if let Some(x) = r.get(b) {
-                    #[allow(clippy::needless_range_loop)] // as in `lanes_dot`
-                    for l in 0..CHUNK {
-                        acc[l] += s * x.m[l];
-                    }
-                }
+            #[allow(clippy::needless_range_loop)] // as in `lanes_dot`
+            for l in 0..CHUNK {
+                acc[l] += y0 * x0.m[l];
+                acc[l] += y1 * x1.m[l];
+                acc[l] += y2 * x2.m[l];
+                acc[l] += y3 * x3.m[l];
+                acc[l] += y4 * x4.m[l];
+                acc[l] += y5 * x5.m[l];
             }
             zb.m = acc;
         }
