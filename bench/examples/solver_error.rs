@@ -8,9 +8,11 @@
 //! Scenes: `beam`, `liver`, `bunny` (the report's), `liver3k`, `bunny3k`.
 //! `RUNS="mass:5 two-level:3"` chooses the preconditioners and CG
 //! iterations to measure; an entry `two-level:4:0.2` also sets the CG
-//! tolerance. The warm start is on for every preconditioner but `mass`;
+//! tolerance, and `mass:5:0:qr` the method (the paper's CG as the
+//! defaults were before `two-level` and `qr-invertible`). The warm start is on for every preconditioner but `mass`;
 //! `WARM=0` (or `1`) sets it for every run; `GUARD=0` turns the energy guard
-//! off.
+//! off; `METHOD=qr` (any method's name) replaces the default method,
+//! `qr-invertible`.
 //! Each line gives the preconditioner, CG iterations, mean ms per step (the
 //! first step, which prepares the preconditioner, apart), the CG iterations
 //! that ran per step (the energy certificate may add some), the steps that
@@ -55,6 +57,9 @@ fn main() {
     } else {
         args
     };
+    let method = std::env::var("METHOD").map_or(Method::DEFAULT, |m| {
+        Method::from_name(&m).expect("METHOD is a method's name")
+    });
     let steps = 200;
     let dt = 1.0e-3;
     for name in &names {
@@ -66,32 +71,33 @@ fn main() {
             r.step(&rs);
             traj.push(&r.u);
         }
-        let runs: Vec<(Preconditioner, u32, f32)> = match std::env::var("RUNS") {
+        let runs: Vec<(Preconditioner, u32, f32, Method)> = match std::env::var("RUNS") {
             // `RUNS="mass:5 two-level:3"` chooses the runs.
             Ok(list) => list
                 .split_whitespace()
                 .map(|r| {
                     let mut parts = r.split(':');
-                    let (p, c, t) = (parts.next(), parts.next(), parts.next());
+                    let (p, c, t, m) = (parts.next(), parts.next(), parts.next(), parts.next());
                     (
                         Preconditioner::from_name(p.unwrap_or_default())
                             .expect("a preconditioner name"),
                         c.and_then(|c| c.parse().ok())
-                            .expect("RUNS entries are name:iterations[:tolerance]"),
+                            .expect("RUNS entries are name:iterations[:tolerance[:method]]"),
                         t.map_or(0.0, |t| t.parse().expect("a tolerance")),
+                        m.map_or(method, |m| Method::from_name(m).expect("a method name")),
                     )
                 })
                 .collect(),
             Err(_) => vec![
-                (Preconditioner::Mass, 5, 0.0),
-                (Preconditioner::BlockJacobi, 5, 0.0),
-                (Preconditioner::TwoLevel, 3, 0.0),
-                (Preconditioner::TwoLevel, 4, 0.0),
-                (Preconditioner::TwoLevel, 5, 0.0),
+                (Preconditioner::Mass, 5, 0.0, method),
+                (Preconditioner::BlockJacobi, 5, 0.0, method),
+                (Preconditioner::TwoLevel, 3, 0.0, method),
+                (Preconditioner::TwoLevel, 4, 0.0, method),
+                (Preconditioner::TwoLevel, 5, 0.0, method),
             ],
         };
-        for (pre, cg, tol) in runs {
-            let mut sc = d.core_with(Method::Qr, dt as f32, cg, pre);
+        for (pre, cg, tol, method) in runs {
+            let mut sc = d.core_with(method, dt as f32, cg, pre);
             let mut settings = *sc.settings();
             settings.cg_tolerance = tol;
             // `WARM=0` (or `1`) overrides the warm start, which is on for
@@ -135,9 +141,10 @@ fn main() {
                 );
             }
             println!(
-                "{name:8} {:5} nodes {:6} tets  {:13} cg {cg:2} tol {tol:4}  {:.4} ms/step (first {:.3} ms)  {:.2} it/step  {galerkin:3} galerkin  error {}{}",
+                "{name:8} {:5} nodes {:6} tets  {:13} {:13} cg {cg:2} tol {tol:4}  {:.4} ms/step (first {:.3} ms)  {:.2} it/step  {galerkin:3} galerkin  error {}{}",
                 d.nodes.len(),
                 d.tets.len(),
+                method.name(),
                 pre.name(),
                 secs * 1e3 / (steps - 1) as f64,
                 first * 1e3,

@@ -9,6 +9,11 @@
 //!
 //! BODY is any of `liver`, `bunny`, `beam`, `slivers` (default: all). With
 //! `--write FILE` the tables replace the `sweep-BODY` sections of FILE.
+//! Each case runs with the default method and solver settings but its CG
+//! budget; `COROFEM_SWEEP_METHOD`, `COROFEM_SWEEP_PRECONDITIONER`,
+//! `COROFEM_SWEEP_WARM_START` and `COROFEM_SWEEP_ENERGY_GUARD` replace
+//! them, `COROFEM_SWEEP_MAX_STEPS` the recovery budget, and
+//! `COROFEM_SWEEP_POLAR=0` skips the polar re-run of a failed case.
 
 use corofem::Method;
 use corofem_host_tests::reliability::{self, Body, Outcome};
@@ -84,6 +89,7 @@ fn main() {
     let method = std::env::var("COROFEM_SWEEP_METHOD").map_or(Method::DEFAULT, |m| {
         Method::from_name(&m).unwrap_or_else(|| panic!("COROFEM_SWEEP_METHOD: no method {m:?}"))
     });
+    let rerun = std::env::var("COROFEM_SWEEP_POLAR").map_or(true, |v| v != "0");
     let (mut total, mut passed, mut rescued) = (0, 0, 0);
     for (key, body) in &bodies {
         let mut outcomes = Vec::new();
@@ -96,8 +102,9 @@ fn main() {
             print_outcome(body, what, &o);
             total += 1;
             passed += usize::from(o.passed);
-            // Where the method fails, the same case with the polar method.
-            let polar = (!o.passed).then(|| {
+            // Where the method fails, the same case with the polar method
+            // (`COROFEM_SWEEP_POLAR=0`: not).
+            let polar = (!o.passed && rerun).then(|| {
                 let p = reliability::run_case(body, case, Method::Polar, budget);
                 print_outcome(body, what, &p);
                 rescued += usize::from(p.passed);
