@@ -9,10 +9,10 @@
 //! `RUNS="mass:5 two-level:3"` chooses the preconditioners and CG
 //! iterations to measure; an entry `two-level:4:0.2` also sets the CG
 //! tolerance, and `mass:5:0:qr` the method (the paper's CG as the
-//! defaults were before `two-level` and `qr-invertible`). The warm start is on for every preconditioner but `mass`;
-//! `WARM=0` (or `1`) sets it for every run; `GUARD=0` turns the energy guard
-//! off; `METHOD=qr` (any method's name) replaces the default method,
-//! `qr-invertible`.
+//! defaults were before `two-level` and `qr-invertible`). The warm start is
+//! on for every preconditioner but `mass`; `WARM=0` (or `1`) sets it for
+//! every run; `GUARD=0` turns the energy guard off; `METHOD=qr` (any
+//! method's name) replaces the default method, `qr-invertible`.
 //! Each line gives the preconditioner, CG iterations, mean ms per step (the
 //! first step, which prepares the preconditioner, apart), the CG iterations
 //! that ran per step (the energy certificate may add some), the steps that

@@ -647,38 +647,19 @@ fn pareto(o: &Opts, md: &mut String) -> Res<()> {
                 &[]
             };
             method_report(o, md, &grid, d, method, &runs, overlay)?;
-            if let Some(r) = runs.iter().find(|r| r.dt_ms == 1.0 && r.cg == "5") {
-                writeln!(
-                    defaults,
-                    "| {} | {} | {mname} | {:.3} | {:.2e} | {:.2e} |",
-                    d.name,
-                    d.tets.len(),
-                    r.ms_step,
-                    r.err_solve,
-                    r.err_total
-                )?;
-            }
+            dt1_row(&mut defaults, d, mname, &runs, "5")?;
             all_runs.extend(runs);
         }
         writeln!(
             md,
-            "### {} ({} tets), {DEFAULT_SOLVER}\n\n`qr-invertible`, `two-level`, warm start, \
-             against the QR reference (drawn on the Qr plots above at dt 1 ms).\n",
+            "### {} ({} tets), {DEFAULT_SOLVER}\n\n{DEFAULT_SETTINGS}, against the QR \
+             reference (drawn on the Qr plots above at dt 1 ms).\n",
             d.name,
             d.tets.len()
         )?;
         solve_table(md, &default_grid, &default_runs)?;
-        if let Some(r) = default_runs.iter().find(|r| r.dt_ms == 1.0 && r.cg == "4") {
-            writeln!(
-                defaults,
-                "| {} | {} | {DEFAULT_SOLVER}, 4 iterations | {:.3} | {:.2e} | {:.2e} |",
-                d.name,
-                d.tets.len(),
-                r.ms_step,
-                r.err_solve,
-                r.err_total
-            )?;
-        }
+        let label = format!("{DEFAULT_SOLVER}, 4 iterations");
+        dt1_row(&mut defaults, d, &label, &default_runs, "4")?;
         all_runs.extend(default_runs);
         methods_plot(o, md, d, &all_runs, fine_ms)?;
     }
@@ -794,8 +775,26 @@ fn method_runs(
     Ok(runs)
 }
 
-/// The name of the default solver's runs in the report.
+/// The name of the default solver's runs in the report, and its settings.
 const DEFAULT_SOLVER: &str = "default solver";
+const DEFAULT_SETTINGS: &str = "`qr-invertible`, `two-level`, warm start";
+
+/// The row of the dt 1 ms table for the run of `runs` with the CG budget
+/// `cg`, if there is one.
+fn dt1_row(table: &mut String, d: &SceneDef, label: &str, runs: &[Run], cg: &str) -> Res<()> {
+    if let Some(r) = runs.iter().find(|r| r.dt_ms == 1.0 && r.cg == cg) {
+        writeln!(
+            table,
+            "| {} | {} | {label} | {:.3} | {:.2e} | {:.2e} |",
+            d.name,
+            d.tets.len(),
+            r.ms_step,
+            r.err_solve,
+            r.err_total
+        )?;
+    }
+    Ok(())
+}
 
 /// The plots and the solve-error table of one scene and method, with the
 /// runs `overlay` (another solver against the same reference) drawn beside
@@ -912,8 +911,8 @@ fn method_report(
     if !overlay.is_empty() {
         writeln!(
             md,
-            "Triangles: the {DEFAULT_SOLVER} (`qr-invertible`, `two-level`, warm start) at dt \
-             1 ms, against the same QR reference.\n"
+            "Triangles: the {DEFAULT_SOLVER} ({DEFAULT_SETTINGS}) at dt 1 ms, against the \
+             same QR reference.\n"
         )?;
     }
     solve_table(md, grid, runs)
