@@ -78,6 +78,10 @@ pub(crate) struct Header {
     pub(crate) energy_ref: f32,
     #[cfg(feature = "energy-guard")]
     pub(crate) energy_known: bool,
+    /// The tool's target when the reference was taken (m): the guard
+    /// credits the work of moving it since.
+    #[cfg(all(feature = "energy-guard", feature = "tool"))]
+    pub(crate) energy_target: crate::math::Vec3,
 }
 
 /// The instruction set a scene is asked to step with: `Best` is zero, so
@@ -170,6 +174,8 @@ impl Header {
         energy_ref: 0.0,
         #[cfg(feature = "energy-guard")]
         energy_known: false,
+        #[cfg(all(feature = "energy-guard", feature = "tool"))]
+        energy_target: [0.0; 3],
     };
 }
 

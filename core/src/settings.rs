@@ -120,14 +120,16 @@ pub struct Settings {
     /// Gravity (m/s²). Default `(0, 0, −9.81)`.
     pub gravity: Vec3,
     /// The energy guard: a step whose start finds the body with more energy
-    /// (kinetic, elastic, and the potential of gravity and the loads) than
-    /// the previous step left it, while nothing did work on it and elements
-    /// were inverted, first takes the excess out of the velocity's
-    /// deformation part, keeping the linear and angular momentum
-    /// ([`StepStats::energy_removed`]). Nothing does work in a step in which
-    /// no tool and no ground holds the body (the ground's held nodes, its
-    /// impact and its projection do work) and after which no call changed
-    /// the scene. It stops the energy that `Qr`'s forces feed in once
+    /// (kinetic, elastic, the potential of gravity and the loads, and the
+    /// tool spring's) than the previous step left it, less the work of
+    /// moving the tool's target since, while nothing else did work on it
+    /// and elements were inverted, first takes the excess out of the
+    /// velocity's deformation part, keeping the linear and angular momentum
+    /// ([`StepStats::energy_removed`]). Nothing else does work in a step in
+    /// which no ground holds the body (the ground's held nodes, its impact
+    /// and its projection do work) and after which no call changed the
+    /// scene (grabbing and releasing forget the reference; moving the
+    /// target does not). It stops the energy that `Qr`'s forces feed in once
     /// elements invert (they are not the gradient of an energy there).
     /// Steps without inverted elements are left as the implicit step makes
     /// them: the energy measured is not one the co-rotational step conserves

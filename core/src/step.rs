@@ -296,7 +296,15 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
         if n.flags & GRABBED != 0 && tool.active() {
             // Implicit spring: f += k (anchor − x) − h k v, A += h² k.
             let k = tool.k_node;
-            f = add(f, scale(sub(tool.anchor(offsets.next()), n.position()), k));
+            let offset = offsets.next();
+            let stretch = sub(tool.anchor(offset), n.position());
+            f = add(f, scale(stretch, k));
+            #[cfg(feature = "energy-guard")]
+            ledger.spring(
+                k,
+                stretch,
+                sub(add(hdr.energy_target, offset), n.position()),
+            );
             f = axpy(f, -h * k, n.v);
             p += h * h * k;
         }
@@ -313,19 +321,21 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
     // The energy guard (`Correction`): the body's energy at the step's
     // start against the reference the last step left.
     let elastic = totals.energy;
-    let energy = 0.5 * ledger.kinetic2 + elastic + ledger.potential;
-    #[allow(unused_mut)] // only the tool sets it
+    let own = 0.5 * ledger.kinetic2 + elastic + ledger.potential;
+    let energy = own + ledger.spring;
+    // The reference counts the tool spring's energy with the target of its
+    // step. Moving the target since did work on the body, which the check
+    // credits: it counts the spring with the reference's target, the energy
+    // the body would have had the target stayed.
+    let checked = own + ledger.spring_ref;
+    #[allow(unused_mut)] // only the ground sets it
     let mut closed = true;
-    #[cfg(feature = "tool")]
-    if tool.active() {
-        closed = false;
-    }
     let guard = cfg!(feature = "energy-guard") && s.energy_guard;
     #[cfg(feature = "energy-guard")]
     let reference = hdr.energy_known.then_some(hdr.energy_ref);
     #[cfg(not(feature = "energy-guard"))]
     let reference = None::<f32>;
-    let size = 0.5 * ledger.kinetic2 + elastic.abs() + ledger.magnitude;
+    let size = 0.5 * ledger.kinetic2 + elastic.abs() + ledger.magnitude + ledger.spring_ref;
     // Only a step across which elements were inverted is corrected: there
     // `Qr`'s forces pump energy in. Elsewhere the energy measured is not one
     // that `Qr`'s forces conserve exactly either (its rotation is not the
@@ -335,8 +345,8 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
     // take out.
     let inverted = was_inverted || totals.inverted > 0;
     let correction = match reference {
-        Some(r) if guard && closed && inverted && energy - r > GUARD_ROUNDING * size => {
-            Correction::new(nodes, work, any_fixed, energy - r)
+        Some(r) if guard && closed && inverted && checked - r > GUARD_ROUNDING * size => {
+            Correction::new(nodes, work, any_fixed, checked - r)
         }
         _ => None,
     };
@@ -568,6 +578,10 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
         hdr.energy_known = guard && closed;
         if guard {
             hdr.energy_ref = energy - removed;
+            #[cfg(feature = "tool")]
+            {
+                hdr.energy_target = tool.target;
+            }
         }
     }
     #[cfg(not(feature = "energy-guard"))]
@@ -608,6 +622,11 @@ struct Ledger {
     potential: f32,
     /// `Σ |(m g + f)·u|`.
     magnitude: f32,
+    /// The tool spring's energy `½ (k/n) Σ |a + o − x|²` over the grabbed
+    /// nodes, with the tool's target `a` (`spring`) and with the target of
+    /// the guard's reference (`spring_ref`). Zero without the tool.
+    spring: f32,
+    spring_ref: f32,
 }
 
 impl Ledger {
@@ -621,6 +640,16 @@ impl Ledger {
         let work = dot(weight, n.u) + dot(load, n.u);
         self.potential -= work;
         self.magnitude += work.abs();
+    }
+
+    /// A grabbed node's spring (stiffness `k`), stretched by `stretch`
+    /// towards the tool's target and by `stretch_ref` towards the
+    /// reference's.
+    #[cfg(all(feature = "tool", feature = "energy-guard"))]
+    #[inline(always)]
+    fn spring(&mut self, k: f32, stretch: Vec3, stretch_ref: Vec3) {
+        self.spring += 0.5 * k * dot(stretch, stretch);
+        self.spring_ref += 0.5 * k * dot(stretch_ref, stretch_ref);
     }
 }
 
@@ -654,11 +683,12 @@ fn keep_angular_momentum(
 }
 
 /// The energy guard's correction of the velocity a step starts from. When
-/// the body's energy (kinetic, elastic, and the potential of gravity and
-/// the loads) at a step's start exceeds what the last step left while
-/// nothing did work on the body (no tool and no ground held it, no call
-/// changed the scene) and elements were inverted at either step's start,
-/// the excess `X` is taken out of the velocity's
+/// the body's energy (kinetic, elastic, the potential of gravity and the
+/// loads, and the tool spring's) at a step's start exceeds what the last
+/// step left, less the work of moving the tool's target in between, while
+/// nothing else did work on the body (no ground held it, no call changed
+/// the scene) and elements were inverted at either step's start, the
+/// excess `X` is taken out of the velocity's
 /// deformation part, `v ← v + δ` with `δ = (s − 1) (v − v_R)`, where `v_R`
 /// is the rigid motion of the same linear and angular momentum (for a body
 /// without fixed nodes; else `v_R = 0`) and `s² = 1 − X / KE_d`, `KE_d` the

@@ -117,6 +117,8 @@ impl<S: crate::Storage> crate::Scene<S> {
             target: centroid,
             count: count as u32,
         };
+        // A new spring: its energy is not work the guard can account for.
+        self.hdr.forget_energy();
         Ok(())
     }
 
@@ -127,6 +129,7 @@ impl<S: crate::Storage> crate::Scene<S> {
             n.flags &= !crate::storage::GRABBED;
         }
         v.hdr.tool = ToolState::NONE;
+        v.hdr.forget_energy();
     }
 
     /// Whether the tool holds nodes.
