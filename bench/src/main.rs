@@ -256,10 +256,11 @@ fn memory(o: &Opts, md: &mut String) -> Res<()> {
          element/mod.rs; a single binary can only measure one feature set; the core unit test \
          `storage_sizes_per_feature` checks the sums): an element is 72 bytes with `qr` alone, \
          +36 with `polar` or `linear` (rest gradients), +16 with `polar` (rotation); `Node` is \
-         44 bytes and `NodeWork` 52 with every feature: the tool's grab offsets and the \
-         constant loads are 16-byte slots in lists sized per scene, one per grabbed or loaded \
-         node. A `qr` scene therefore keeps 72 bytes per element and 96 per node; with every \
-         feature 124 and 96, plus 16 per grabbed or loaded node.\n"
+         44 bytes and `NodeWork` 52, 68 with `ground` (its push-out keeps the step's velocity \
+         change and contact impulse): the tool's grab offsets and the constant loads are \
+         16-byte slots in lists sized per scene, one per grabbed or loaded node. A `qr` scene \
+         therefore keeps 72 bytes per element and 96 per node; with every feature 124 and \
+         112, plus 16 per grabbed or loaded node.\n"
     )?;
     writeln!(
         md,

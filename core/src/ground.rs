@@ -6,9 +6,19 @@
 //! the CG directions (an exact constraint, no penalty spring, so it is stable
 //! at any time step). After the solve, the unfiltered residual gives each held
 //! node's contact force; a node the plane would have to *pull* is released for
-//! the next step. Nodes that were free but end below the plane are projected
-//! onto it and lose their inward normal velocity (a perfectly inelastic,
-//! frictionless contact).
+//! the next step. Nodes that were free but end a step below the plane lose
+//! their inward normal velocity (a perfectly inelastic, frictionless
+//! contact) and keep their position for that step.
+//!
+//! The next step holds them and pushes them out within its solve, so that
+//! their neighbours move along: moved onto the plane alone after the solve,
+//! a node would strain its elements by the depth it reached, energy that a
+//! stiff body over long steps holds in spikes many times what a fall puts
+//! in. The push's velocity only corrects positions: a second solve finds
+//! the body's response to the push alone, and the step's velocity leaves it
+//! out (a split impulse), so that a pushed node does not bounce off the
+//! plane again. A landing node thus reads below the plane for one step, by
+//! at most the distance it travels in that step.
 //!
 //! A body that no fixed node holds is also treated as a whole, where a
 //! truncated solve cannot spread a contact through it (`step.rs`):
@@ -16,8 +26,8 @@
 //!   motion that gives them their prescribed normal velocity, not from the
 //!   free fall: a resting body starts at rest and the solve finds its sag.
 //! * **Landing.** Where a step ends with nodes below the plane, the body's
-//!   rigid motion stops their inward velocity before each node is projected
-//!   (an inelastic rigid impact, never adding energy), for the share of the
+//!   rigid motion stops their inward velocity before each node still below
+//!   is stopped alone (an inelastic rigid impact, never adding energy), for the share of the
 //!   body that a pressure wave crosses in one step: all of a stiff body over
 //!   a long step, none of a body without stiffness.
 
@@ -84,23 +94,31 @@ impl Plane {
         axpy(self.filter(z), along, self.normal)
     }
 
-    /// Projects a node that ended below the plane back onto it and removes
-    /// its inward normal velocity. Returns the new displacement and velocity.
+    /// Stops a node that ended a step below the plane: removes its inward
+    /// normal velocity and keeps its position, which the next step's held
+    /// rule takes back onto the plane. Returns the new velocity.
     #[inline]
     #[must_use]
-    pub(crate) fn project(&self, x0: Vec3, u: Vec3, v: Vec3) -> (Vec3, Vec3) {
-        let dist = self.distance(crate::math::add(x0, u));
-        if dist >= 0.0 {
-            return (u, v);
-        }
-        let u = axpy(u, -dist, self.normal);
+    pub(crate) fn stop(&self, x: Vec3, v: Vec3) -> Vec3 {
         let vn = dot(self.normal, v);
-        let v = if vn < 0.0 {
-            axpy(v, -vn, self.normal)
-        } else {
-            v
-        };
-        (u, v)
+        if self.distance(x) >= 0.0 || vn >= 0.0 {
+            return v;
+        }
+        axpy(v, -vn, self.normal)
+    }
+
+    /// Whether a held node at `x`, at signed distance `dist`, is below the
+    /// plane by more than the round-off of `dist` itself (4 ε times the
+    /// magnitudes it is summed from): a node the step must push out, not
+    /// one that rests on the plane.
+    #[inline]
+    #[must_use]
+    pub(crate) fn pushes(&self, x: Vec3, dist: f32) -> bool {
+        let size = self.normal[0].abs() * x[0].abs()
+            + self.normal[1].abs() * x[1].abs()
+            + self.normal[2].abs() * x[2].abs()
+            + self.offset.abs();
+        dist < -4.0 * f32::EPSILON * size
     }
 }
 
@@ -154,10 +172,25 @@ mod tests {
     }
 
     #[test]
-    fn projection_moves_onto_the_plane_and_stops_inward_motion() {
+    fn a_node_below_keeps_its_position_and_loses_its_inward_velocity() {
         let p = Plane::Z_UP;
-        let (u, v) = p.project([0.0, 0.0, 0.0], [0.0, 0.0, -0.5], [1.0, 0.0, -2.0]);
-        assert_eq!(u, [0.0, 0.0, 0.0]);
-        assert_eq!(v, [1.0, 0.0, 0.0]);
+        assert_eq!(p.stop([0.0, 0.0, -0.5], [1.0, 0.0, -2.0]), [1.0, 0.0, 0.0]);
+        // Moving out already, or above the plane: unchanged.
+        assert_eq!(p.stop([0.0, 0.0, -0.5], [1.0, 0.0, 2.0]), [1.0, 0.0, 2.0]);
+        assert_eq!(p.stop([0.0, 0.0, 0.5], [1.0, 0.0, -2.0]), [1.0, 0.0, -2.0]);
+    }
+
+    #[test]
+    fn only_a_depth_beyond_round_off_is_pushed_out() {
+        let p = Plane {
+            normal: [0.0, 0.0, 1.0],
+            offset: 1.0,
+        };
+        // One ulp below a plane at z = 1 is round-off; a micrometre is not.
+        let x = [0.0, 0.0, 1.0 - f32::EPSILON];
+        assert!(!p.pushes(x, p.distance(x)));
+        let x = [0.0, 0.0, 1.0 - 1e-6];
+        assert!(p.pushes(x, p.distance(x)));
+        assert!(!p.pushes([0.0, 0.0, 1.0], 0.0));
     }
 }

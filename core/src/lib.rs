@@ -21,7 +21,7 @@
 //!                 │   more until the energy certificate holds;
 //!                 │   K d element by element from g, never assembled)
 //!                 ▼
-//!            v ← v + Δv, u ← u + h v  (only if finite), ground projection,
+//!            v ← v + Δv, u ← u + h v  (only if finite), ground push-out,
 //!            tool force
 //! ```
 //!

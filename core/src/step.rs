@@ -120,6 +120,9 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
     };
     #[allow(unused_mut)] // only the ground counts held nodes
     let mut held = 0u32;
+    // Held nodes below the plane beyond round-off, which the step pushes out.
+    #[cfg(feature = "ground")]
+    let mut pushes = 0u32;
     #[allow(unused_mut)] // only the ground and the tool set it
     let mut isolated = !any_fixed;
     // The grabbed nodes hold the body (a grab lists at least one node).
@@ -140,6 +143,7 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
             if n.flags & RELEASED == 0 && dist <= 0.0 && dot(g.normal, n.v) <= 0.0 {
                 n.flags |= CONTACT;
                 held += 1;
+                pushes += u32::from(g.pushes(n.position(), dist));
                 isolated = false;
             }
         }
@@ -482,9 +486,31 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
         }
     }
 
+    // A push out of the ground moves the held nodes below the plane onto it
+    // within the solve, and their neighbours with them; the velocity it
+    // gives them only corrects positions, and `relax` takes it out again.
+    #[cfg(feature = "ground")]
+    if let Some(g) = ground {
+        for w in work.iter_mut() {
+            w.dv = w.x;
+            w.pull = dot(g.normal, w.r);
+        }
+        if pushes > 0 {
+            #[cfg(feature = "two-level")]
+            let whole = (kind != Preconditioner::Mass).then_some(
+                #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
+                |work: &mut [NodeWork]| {
+                    crate::precond::apply(nodes_ro, work, &mut pre, project, project)
+                },
+            );
+            #[cfg(not(feature = "two-level"))]
+            let whole = None::<fn(&mut [NodeWork]) -> f32>;
+            relax(g, h, nodes_ro, work, s, project, whole, apply);
+        }
+    }
     // Check, then apply. The new displacement and velocity (after the ground
-    // projection) go into the spent CG scratch `d` and `q`, and the state is
-    // written only if they and the tool force are all finite.
+    // stops landing nodes) go into the spent CG scratch `d` and `q`, and the
+    // state is written only if they and the tool force are all finite.
     #[allow(unused_mut)] // only the tool adds to it
     let mut tool_force = [0.0f32; 3];
     // `probe` stays zero exactly while every value checked is finite
@@ -496,9 +522,17 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
     let mut below = false;
     for (n, w) in nodes.iter().zip(work.iter_mut()) {
         let v = add(n.v, w.x);
+        // With the ground, positions move with the velocity change before
+        // `relax` (`dv`), the push out included.
+        #[cfg(feature = "ground")]
+        let u = match ground {
+            Some(_) => axpy(n.u, h, add(n.v, w.dv)),
+            None => axpy(n.u, h, v),
+        };
+        #[cfg(not(feature = "ground"))]
         let u = axpy(n.u, h, v);
         // Held nodes end on the plane (below it by round-off at most, which
-        // the projection takes): only the others can land.
+        // the next step holds again): only the others can land.
         #[cfg(feature = "ground")]
         if let Some(g) = ground {
             below |= n.flags & CONTACT == 0 && g.distance(add(n.x0, u)) < 0.0;
@@ -507,7 +541,8 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
         w.q = v;
     }
     // Nodes that end below the ground: the body's rigid motion first takes
-    // them out (`impact`), then each node is projected.
+    // them out (`impact`), then each node still below loses its inward
+    // normal velocity (`Plane::stop`) and is pushed out by the next step.
     #[cfg(feature = "ground")]
     if let (Some(g), true, false) = (ground, below, any_fixed) {
         let share = |body: &Rigid| reach(body, elems_ro, n_elems, per_young, h);
@@ -522,9 +557,9 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
     for (n, w) in nodes.iter().zip(work.iter_mut()) {
         let (u, v) = (w.d, w.q);
         #[cfg(feature = "ground")]
-        let (u, v) = match ground {
-            Some(g) => g.project(n.x0, u, v),
-            None => (u, v),
+        let v = match ground {
+            Some(g) => g.stop(add(n.x0, u), v),
+            None => v,
         };
         #[cfg(feature = "tool")]
         if n.flags & GRABBED != 0 && tool.active() {
@@ -551,10 +586,10 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
         n.u = w.d;
         n.v = w.q;
         #[cfg(feature = "ground")]
-        if let Some(g) = ground {
+        if ground.is_some() {
             // Release a held node whose contact force would pull (n·r > 0).
             n.flags &= !RELEASED;
-            if n.flags & CONTACT != 0 && dot(g.normal, w.r) > 0.0 {
+            if n.flags & CONTACT != 0 && w.pull > 0.0 {
                 n.flags |= RELEASED;
             }
         }
@@ -565,7 +600,7 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
     hdr.guess_stale = outcome.iterations > s.cg_iterations || !outcome.certified;
     let removed = correction.map_or(0.0, |c| c.removed);
     // The ground does work on a body it holds or stops (the held normals'
-    // prescribed velocities, the impact, the projection): a step with
+    // prescribed velocities, the impact, the stop): a step with
     // contacts leaves no reference.
     #[cfg(feature = "ground")]
     if held > 0 || below {
@@ -1197,6 +1232,67 @@ impl PlaneFit {
     }
 }
 
+/// Takes a push out of the ground back out of the velocity (a split
+/// impulse). A held node below the plane at `dist < 0` is prescribed the
+/// normal velocity `−dist/h`, which ends the step on the plane; the solve
+/// moves its neighbours along, so the elements it shares do not take the
+/// depth as strain. That velocity only corrects a position: kept, it would
+/// lift the node off the plane again, a bounce as high as the depth, and a
+/// body resting on the ground would never come to rest. By linearity the
+/// step's velocity change (`dv`) is the one without the push plus the
+/// push's own response `w`, the solve of `A w = 0` (filtered) with the
+/// pushed normals prescribed, which this solves with the step's budget and
+/// preconditioner. The velocity keeps `dv − w`, and the positions `dv`.
+/// Leaves the new velocity change in `x`. It costs a second solve, in the
+/// steps that push nodes out: those in which nodes landed the step before.
+#[cfg(feature = "ground")]
+#[allow(clippy::too_many_arguments)] // the step's parts, as `cg::solve` takes them
+#[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
+fn relax(
+    g: crate::ground::Plane,
+    h: f32,
+    nodes: &[Node],
+    work: &mut [NodeWork],
+    s: crate::Settings,
+    project: impl Fn(usize, Vec3) -> Vec3 + Copy,
+    whole: Option<impl FnMut(&mut [NodeWork]) -> f32>,
+    mut apply: impl FnMut(&mut [NodeWork]) -> f32 + Copy,
+) {
+    for (n, w) in nodes.iter().zip(work.iter_mut()) {
+        let p = n.position();
+        let dist = g.distance(p);
+        w.x = if n.flags & CONTACT != 0 && g.pushes(p, dist) {
+            scale(g.normal, -dist / h)
+        } else {
+            [0.0; 3]
+        };
+        w.d = w.x;
+        w.q = [0.0; 3];
+    }
+    // r = 0 − A w₀, unfiltered like the step's.
+    let _ = apply(work);
+    for w in work.iter_mut() {
+        w.r = scale(w.q, -1.0);
+    }
+    let outcome = cg::solve(
+        work,
+        s.cg_iterations,
+        s.cg_iterations,
+        s.cg_tolerance,
+        true,
+        project,
+        whole,
+        apply,
+        |_: &[NodeWork]| true,
+    );
+    // A push's solve that overflowed (a system beyond f32, which the step's
+    // own solve has passed) leaves the push in the velocity.
+    let keep = outcome.overflow || work.iter().any(|w| !is_finite3(w.x));
+    for w in work.iter_mut() {
+        w.x = if keep { w.dv } else { sub(w.dv, w.x) };
+    }
+}
+
 /// The weight of a held node in the fit of an impact, per unit mass, against
 /// 1 for a node arriving: the ground already holds it, so the motion must
 /// leave its normal velocity as it is (up to `1/HELD` of the arrivals'
@@ -1206,8 +1302,8 @@ const HELD: f32 = 1e4;
 
 /// The rigid part of an impact on the ground, for a body that no fixed node
 /// holds: where the solved step ends with nodes below the plane moving
-/// inwards, the body's rigid motion stops them before each node is
-/// projected, so that a landing body stops as a whole instead of having its
+/// inwards, the body's rigid motion stops them before each node still
+/// below is stopped alone, so that a landing body stops as a whole instead of having its
 /// lowest layer squashed onto the plane (the layer a truncated solve leaves
 /// falling, and a long step moves deep into the ground).
 ///

@@ -98,6 +98,14 @@ pub struct NodeWork {
     pub(crate) q: Vec3,
     /// Inverse of the preconditioner's diagonal (0 on fixed nodes).
     pub(crate) inv_p: f32,
+    /// The step's velocity change, kept while the solve of a push out of
+    /// the ground runs in `x` (`step::relax`).
+    #[cfg(feature = "ground")]
+    pub(crate) dv: Vec3,
+    /// The step's contact impulse along the ground's normal, `n·r`
+    /// (positive: the plane would pull), kept for the same reason.
+    #[cfg(feature = "ground")]
+    pub(crate) pull: f32,
 }
 
 impl NodeWork {
@@ -108,6 +116,10 @@ impl NodeWork {
         d: [0.0; 3],
         q: [0.0; 3],
         inv_p: 0.0,
+        #[cfg(feature = "ground")]
+        dv: [0.0; 3],
+        #[cfg(feature = "ground")]
+        pull: 0.0,
     };
 }
 
@@ -612,7 +624,8 @@ mod tests {
             (72 + rest_grad + rot) * crate::ELEMENTS_PER_BLOCK
         );
         assert_eq!(core::mem::size_of::<Node>(), 44);
-        assert_eq!(core::mem::size_of::<NodeWork>(), 52);
+        let ground = if cfg!(feature = "ground") { 16 } else { 0 };
+        assert_eq!(core::mem::size_of::<NodeWork>(), 52 + ground);
         assert_eq!(core::mem::size_of::<NodeEntry>(), 16);
     }
 }
