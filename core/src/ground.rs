@@ -27,9 +27,9 @@
 //!   free fall: a resting body starts at rest and the solve finds its sag.
 //! * **Landing.** Where a step ends with nodes below the plane, the body's
 //!   rigid motion stops their inward velocity before each node still below
-//!   is stopped alone (an inelastic rigid impact, never adding energy), for the share of the
-//!   body that a pressure wave crosses in one step: all of a stiff body over
-//!   a long step, none of a body without stiffness.
+//!   is stopped alone (an inelastic rigid impact, never adding energy), for
+//!   the share of the body that a pressure wave crosses in one step: all of
+//!   a stiff body over a long step, none of a body without stiffness.
 
 use crate::error::Parameter;
 use crate::math::{axpy, dot, is_finite3, normalize, Vec3};

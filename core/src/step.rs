@@ -490,23 +490,19 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
     // within the solve, and their neighbours with them; the velocity it
     // gives them only corrects positions, and `relax` takes it out again.
     #[cfg(feature = "ground")]
-    if let Some(g) = ground {
-        for w in work.iter_mut() {
-            w.dv = w.x;
-            w.pull = dot(g.normal, w.r);
-        }
-        if pushes > 0 {
-            #[cfg(feature = "two-level")]
-            let whole = (kind != Preconditioner::Mass).then_some(
-                #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
-                |work: &mut [NodeWork]| {
-                    crate::precond::apply(nodes_ro, work, &mut pre, project, project)
-                },
-            );
-            #[cfg(not(feature = "two-level"))]
-            let whole = None::<fn(&mut [NodeWork]) -> f32>;
-            relax(g, h, nodes_ro, work, s, project, whole, apply);
-        }
+    let relaxed = ground.is_some() && pushes > 0;
+    #[cfg(feature = "ground")]
+    if let (Some(g), true) = (ground, relaxed) {
+        #[cfg(feature = "two-level")]
+        let whole = (kind != Preconditioner::Mass).then_some(
+            #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
+            |work: &mut [NodeWork]| {
+                crate::precond::apply(nodes_ro, work, &mut pre, project, project)
+            },
+        );
+        #[cfg(not(feature = "two-level"))]
+        let whole = None::<fn(&mut [NodeWork]) -> f32>;
+        relax(g, h, nodes_ro, work, s, project, whole, apply);
     }
     // Check, then apply. The new displacement and velocity (after the ground
     // stops landing nodes) go into the spent CG scratch `d` and `q`, and the
@@ -522,13 +518,10 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
     let mut below = false;
     for (n, w) in nodes.iter().zip(work.iter_mut()) {
         let v = add(n.v, w.x);
-        // With the ground, positions move with the velocity change before
-        // `relax` (`dv`), the push out included.
+        // After `relax`, positions move with the velocity change before it
+        // (`dv`), the push out included.
         #[cfg(feature = "ground")]
-        let u = match ground {
-            Some(_) => axpy(n.u, h, add(n.v, w.dv)),
-            None => axpy(n.u, h, v),
-        };
+        let u = axpy(n.u, h, if relaxed { add(n.v, w.dv) } else { v });
         #[cfg(not(feature = "ground"))]
         let u = axpy(n.u, h, v);
         // Held nodes end on the plane (below it by round-off at most, which
@@ -586,10 +579,12 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
         n.u = w.d;
         n.v = w.q;
         #[cfg(feature = "ground")]
-        if ground.is_some() {
-            // Release a held node whose contact force would pull (n·r > 0).
+        if let Some(g) = ground {
+            // Release a held node whose contact force would pull (n·r > 0,
+            // from the step's solve: `relax` keeps it in `pull`).
+            let pull = if relaxed { w.pull } else { dot(g.normal, w.r) };
             n.flags &= !RELEASED;
-            if n.flags & CONTACT != 0 && w.pull > 0.0 {
+            if n.flags & CONTACT != 0 && pull > 0.0 {
                 n.flags |= RELEASED;
             }
         }
@@ -1243,7 +1238,8 @@ impl PlaneFit {
 /// push's own response `w`, the solve of `A w = 0` (filtered) with the
 /// pushed normals prescribed, which this solves with the step's budget and
 /// preconditioner. The velocity keeps `dv − w`, and the positions `dv`.
-/// Leaves the new velocity change in `x`. It costs a second solve, in the
+/// Keeps `dv` and the step's contact impulses `n·r` (in `NodeWork`), and
+/// leaves the new velocity change in `x`. It costs a second solve, in the
 /// steps that push nodes out: those in which nodes landed the step before.
 #[cfg(feature = "ground")]
 #[allow(clippy::too_many_arguments)] // the step's parts, as `cg::solve` takes them
@@ -1259,6 +1255,8 @@ fn relax(
     mut apply: impl FnMut(&mut [NodeWork]) -> f32 + Copy,
 ) {
     for (n, w) in nodes.iter().zip(work.iter_mut()) {
+        w.dv = w.x;
+        w.pull = dot(g.normal, w.r);
         let p = n.position();
         let dist = g.distance(p);
         w.x = if n.flags & CONTACT != 0 && g.pushes(p, dist) {
@@ -1287,9 +1285,15 @@ fn relax(
     );
     // A push's solve that overflowed (a system beyond f32, which the step's
     // own solve has passed) leaves the push in the velocity.
-    let keep = outcome.overflow || work.iter().any(|w| !is_finite3(w.x));
+    let mut probe = f32::from(u8::from(outcome.overflow));
     for w in work.iter_mut() {
-        w.x = if keep { w.dv } else { sub(w.dv, w.x) };
+        w.x = sub(w.dv, w.x);
+        probe = finite_probe(probe, w.x);
+    }
+    if probe != 0.0 {
+        for w in work.iter_mut() {
+            w.x = w.dv;
+        }
     }
 }
 
@@ -1303,9 +1307,10 @@ const HELD: f32 = 1e4;
 /// The rigid part of an impact on the ground, for a body that no fixed node
 /// holds: where the solved step ends with nodes below the plane moving
 /// inwards, the body's rigid motion stops them before each node still
-/// below is stopped alone, so that a landing body stops as a whole instead of having its
-/// lowest layer squashed onto the plane (the layer a truncated solve leaves
-/// falling, and a long step moves deep into the ground).
+/// below is stopped alone, so that a landing body stops as a whole instead
+/// of having its lowest layer squashed onto the plane (the layer a
+/// truncated solve leaves falling, and a long step moves deep into the
+/// ground).
 ///
 /// * **Which motion.** The plane's ([`PlaneFit`]) that stops the arriving
 ///   nodes' inward normal velocity, each node's counted as the smaller of

@@ -97,6 +97,29 @@ fn a_free_body_never_gains_energy_from_a_truncated_solve() {
     assert!(gains.is_empty(), "{} settings gain energy", gains.len());
 }
 
+/// The sweep's liver case `case` run with `method`, without and with the
+/// energy guard (`budget` steps after the release at most), both printed.
+fn liver_without_and_with_the_guard(
+    case: corofem_host_tests::reliability::Case,
+    method: Method,
+    budget: u64,
+) -> [corofem_host_tests::reliability::Outcome; 2] {
+    use corofem_host_tests::reliability::{liver, run_case_guarded};
+    let body = liver();
+    let runs = [false, true].map(|guard| run_case_guarded(&body, case, method, budget, guard));
+    for (what, o) in ["without", "with"].iter().zip(&runs) {
+        eprintln!(
+            "{what} the guard: {} steps, {:.0}% inverted at most, energy {:.2e} of the tool's work, recovery error {:.1e}: {}",
+            o.steps,
+            100.0 * o.inverted,
+            o.energy_ratio,
+            o.recovery,
+            if o.passed { "pass" } else { &o.note }
+        );
+    }
+    runs
+}
+
 /// The energy guard on the sweep's softest liver case (docs/reliability.md):
 /// pulled through itself until a fifth of its elements invert, held,
 /// released with mass damping only. Without the guard `Qr`'s forces, which
@@ -106,9 +129,7 @@ fn a_free_body_never_gains_energy_from_a_truncated_solve() {
 #[test]
 #[cfg_attr(not(shared_meshes), ignore = "needs ../shared/meshes")]
 fn the_energy_guard_stops_the_energy_qr_feeds_into_an_inverted_body() {
-    use corofem_host_tests::reliability::{liver, run_case_guarded, Case};
-    let body = liver();
-    let case = Case {
+    let case = corofem_host_tests::reliability::Case {
         young: 100.0,
         poisson: 0.45,
         dt: 1.0e-3,
@@ -116,18 +137,7 @@ fn the_energy_guard_stops_the_energy_qr_feeds_into_an_inverted_body() {
     };
     // 3 s after the release: the run without the guard blows up in under
     // 1 s (measured: 8e2 times the tool's work at 0.75 s).
-    let budget = 3000;
-    let off = run_case_guarded(&body, case, Method::Qr, budget, false);
-    let on = run_case_guarded(&body, case, Method::Qr, budget, true);
-    for (what, o) in [("without", &off), ("with", &on)] {
-        eprintln!(
-            "{what} the guard: {} steps, {:.0}% inverted at most, energy {:.2e} of the tool's work, recovery error {:.1e}",
-            o.steps,
-            100.0 * o.inverted,
-            o.energy_ratio,
-            o.recovery
-        );
-    }
+    let [off, on] = liver_without_and_with_the_guard(case, Method::Qr, 3000);
     assert!(off.inverted > 0.1, "the case must invert elements");
     assert!(
         off.energy_ratio > 100.0,
@@ -152,9 +162,7 @@ fn the_energy_guard_stops_the_energy_qr_feeds_into_an_inverted_body() {
 #[test]
 #[cfg_attr(not(shared_meshes), ignore = "needs ../shared/meshes")]
 fn the_energy_guard_holds_while_the_tool_pulls() {
-    use corofem_host_tests::reliability::{liver, run_case_guarded, Case};
-    let body = liver();
-    let case = Case {
+    let case = corofem_host_tests::reliability::Case {
         young: 3.0e4,
         poisson: 0.45,
         dt: 1.0e-4,
@@ -162,19 +170,7 @@ fn the_energy_guard_holds_while_the_tool_pulls() {
     };
     // 1 s after the release (10,000 steps): the guarded run is back within
     // 1 % of its rest shape in 0.45 s.
-    let budget = 10_000;
-    let off = run_case_guarded(&body, case, Method::DEFAULT, budget, false);
-    let on = run_case_guarded(&body, case, Method::DEFAULT, budget, true);
-    for (what, o) in [("without", &off), ("with", &on)] {
-        eprintln!(
-            "{what} the guard: {} steps, {:.0}% inverted at most, energy {:.2e} of the tool's work, recovery error {:.1e}: {}",
-            o.steps,
-            100.0 * o.inverted,
-            o.energy_ratio,
-            o.recovery,
-            if o.passed { "pass" } else { &o.note }
-        );
-    }
+    let [off, on] = liver_without_and_with_the_guard(case, Method::DEFAULT, 10_000);
     assert!(
         off.energy_ratio > 10.0,
         "without the guard the case blows up: {:.2e}",
