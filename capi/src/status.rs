@@ -51,6 +51,10 @@ pub enum Status {
     UnusedNode = -16,
     /// The step produced NaN or infinite values and was not applied.
     Diverged = -17,
+    /// A surface vertex lies farther than the reach from every tetrahedron.
+    VertexTooFar = -18,
+    /// A surface triangle repeats a vertex or has collinear corners.
+    DegenerateTriangle = -19,
 }
 
 impl Status {
@@ -76,6 +80,8 @@ impl Status {
             -15 => c"negatively oriented tetrahedron",
             -16 => c"node belongs to no tetrahedron",
             -17 => c"step diverged",
+            -18 => c"surface vertex too far outside the mesh",
+            -19 => c"degenerate surface triangle",
             _ => c"unknown status code",
         }
     }
@@ -126,6 +132,13 @@ impl From<Error> for Failure {
             // The static solve is not part of the C API.
             Error::Unconstrained => (Status::InvalidArgument, None),
             Error::StaticDiverged => (Status::Diverged, None),
+            Error::TooManyVertices { .. } => (Status::Capacity, None),
+            Error::NonFiniteVertex { vertex } => (Status::NonFiniteCoordinate, index(vertex)),
+            Error::VertexTooFar { vertex } => (Status::VertexTooFar, index(vertex)),
+            Error::TriangleIndexOutOfRange { triangle, .. } => {
+                (Status::IndexOutOfRange, Some(triangle))
+            }
+            Error::DegenerateTriangle { triangle } => (Status::DegenerateTriangle, Some(triangle)),
         };
         Self { status, at }
     }

@@ -122,6 +122,36 @@ pub enum Error {
     /// A static solve produced non-finite displacements; the last finite
     /// iterate was kept.
     StaticDiverged,
+    /// More surface vertices than the bindings given (or than `u32` indexes).
+    TooManyVertices {
+        /// Vertices given.
+        count: usize,
+        /// Binding slots given.
+        capacity: usize,
+    },
+    /// A surface vertex is NaN or infinite.
+    NonFiniteVertex {
+        /// The offending vertex.
+        vertex: u32,
+    },
+    /// A surface vertex lies farther than `reach` from every tetrahedron.
+    VertexTooFar {
+        /// The first such vertex.
+        vertex: u32,
+    },
+    /// A surface triangle refers to a vertex that does not exist.
+    TriangleIndexOutOfRange {
+        /// The offending triangle.
+        triangle: usize,
+        /// The index it holds.
+        vertex: u32,
+    },
+    /// A surface triangle lists a vertex twice, or its corners are collinear
+    /// to f32 precision (`|e₁ × e₂| ≤ 4 ε |e₁| |e₂|`): it has no normal.
+    DegenerateTriangle {
+        /// The offending triangle.
+        triangle: usize,
+    },
 }
 
 impl fmt::Display for Error {
@@ -186,6 +216,26 @@ impl fmt::Display for Error {
                 write!(f, "a static solve needs fixed nodes or a grabbing tool")
             }
             Error::StaticDiverged => write!(f, "the static solve diverged"),
+            Error::TooManyVertices { count, capacity } => write!(
+                f,
+                "{count} surface vertices exceed the {capacity} binding slots"
+            ),
+            Error::NonFiniteVertex { vertex } => {
+                write!(f, "surface vertex {vertex} has a NaN or infinite coordinate")
+            }
+            Error::VertexTooFar { vertex } => write!(
+                f,
+                "surface vertex {vertex} lies farther than the reach from every tetrahedron \
+                 (is the surface in the mesh's units and place?)"
+            ),
+            Error::TriangleIndexOutOfRange { triangle, vertex } => write!(
+                f,
+                "surface triangle {triangle} refers to vertex {vertex}, which does not exist"
+            ),
+            Error::DegenerateTriangle { triangle } => write!(
+                f,
+                "surface triangle {triangle} is degenerate (a repeated vertex, or collinear corners)"
+            ),
         }
     }
 }
@@ -253,6 +303,12 @@ pub enum Parameter {
     TetsPerCell,
     /// `Settings::energy_guard`.
     EnergyGuard,
+    /// The `reach` of `Scene::bind_surface`.
+    SurfaceReach,
+    /// The scratch of `Scene::bind_surface`.
+    SurfaceScratch,
+    /// The output slice of `Scene::update_surface` or `vertex_normals`.
+    SurfaceOut,
 }
 
 impl fmt::Display for Parameter {
@@ -295,6 +351,11 @@ impl fmt::Display for Parameter {
             Parameter::Cells => "`cells`: each must be ≥ 1",
             Parameter::Size => "`size`: each edge must be finite and > 0 m",
             Parameter::TetsPerCell => "`tets_per_cell`: it must be 5 or 6",
+            Parameter::SurfaceReach => "surface `reach`: it must be finite and ≥ 0 m",
+            Parameter::SurfaceScratch => {
+                "scratch of `bind_surface`: it needs `surface_scratch_len(vertices)` entries"
+            }
+            Parameter::SurfaceOut => "surface output: it needs one entry per vertex",
             Parameter::EnergyGuard => {
                 "`energy_guard`: this build has no energy guard (cargo feature `energy-guard`)"
             }

@@ -79,6 +79,7 @@
 //! | `ground`, `tool`, `loads`, `statics`, `diagnostics` | ground contact, haptic tool, constant nodal forces, static solve, energies and momenta (and [`StepStats::elastic_energy`]) |
 //! | `energy-guard` (default) | the energy guard ([`Settings::energy_guard`]): a step takes out of the body's deformation the energy the previous step made beyond the work of moving the tool's target, while nothing else did work on it and elements were inverted |
 //! | `two-level` (default) | the block-Jacobi and two-level preconditioners ([`Preconditioner`]); two-level, 4 CG iterations from a warm start, is then the default solver |
+//! | `surface` | embedded surfaces: a detailed triangle surface bound to the tetrahedra and moved with them ([`Scene::bind_surface`], [`Scene::update_surface`], [`vertex_normals`]) |
 //! | `alloc` | `VecStorage` and `VecScene`: storage in `Vec`s, sized at run time (the solver never allocates) |
 //! | `full` | all of the above |
 //! | `libm` (default) / `micromath` | math backend: correctly rounded / fast and approximate; `libm` wins when both are on, one is needed |
@@ -145,6 +146,8 @@ mod ground;
 pub mod na;
 #[cfg(feature = "statics")]
 mod statics;
+#[cfg(feature = "surface")]
+mod surface;
 #[cfg(feature = "tool")]
 mod tool;
 
@@ -174,6 +177,8 @@ pub use statics::{NewtonStats, StaticSettings};
 #[cfg(feature = "alloc")]
 pub use storage::VecStorage;
 pub use storage::{ArrayStorage, Node, NodeEntry, NodeWork, SliceStorage, Storage};
+#[cfg(feature = "surface")]
+pub use surface::{surface_scratch_len, vertex_normals, BindStats, SurfaceBinding};
 
 /// The README's code examples, compiled and run as doctests (they use the tool).
 #[cfg(all(doctest, feature = "tool"))]

@@ -125,12 +125,10 @@ pub(crate) fn sqrt(x: f32) -> f32 {
     f32::from_bits(bits)
 }
 
-/// A number the vector helpers and the element kernels work on: `f32`, or
-/// [`Lanes`](crate::lanes::Lanes) of independent `f32` values (one element per
-/// lane). Every operation is the plain IEEE one, lane by lane, so a kernel
-/// written once gives the same bits for an element whether it runs alone or
-/// in a batch.
-pub(crate) trait Real:
+/// What the vector helpers need of a number: IEEE arithmetic. `f32` and
+/// [`Lanes`](crate::lanes::Lanes) in the step; `f64` only where a one-off
+/// geometric query wants the digits (binding a surface, `surface.rs`).
+pub(crate) trait Arith:
     Copy
     + core::ops::Add<Output = Self>
     + core::ops::Sub<Output = Self>
@@ -138,6 +136,24 @@ pub(crate) trait Real:
     + core::ops::Div<Output = Self>
     + core::ops::Neg<Output = Self>
 {
+}
+
+impl<T> Arith for T where
+    T: Copy
+        + core::ops::Add<Output = T>
+        + core::ops::Sub<Output = T>
+        + core::ops::Mul<Output = T>
+        + core::ops::Div<Output = T>
+        + core::ops::Neg<Output = T>
+{
+}
+
+/// A number the element kernels work on: `f32`, or
+/// [`Lanes`](crate::lanes::Lanes) of independent `f32` values (one element per
+/// lane). Every operation is the plain IEEE one, lane by lane, so a kernel
+/// written once gives the same bits for an element whether it runs alone or
+/// in a batch.
+pub(crate) trait Real: Arith {
     /// Every lane set to `x`.
     fn splat(x: f32) -> Self;
     /// Square root through the selected backend, lane by lane.
@@ -157,37 +173,37 @@ impl Real for f32 {
 
 #[inline(always)]
 #[must_use]
-pub(crate) fn add<T: Real>(a: [T; 3], b: [T; 3]) -> [T; 3] {
+pub(crate) fn add<T: Arith>(a: [T; 3], b: [T; 3]) -> [T; 3] {
     [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
 }
 
 #[inline(always)]
 #[must_use]
-pub(crate) fn sub<T: Real>(a: [T; 3], b: [T; 3]) -> [T; 3] {
+pub(crate) fn sub<T: Arith>(a: [T; 3], b: [T; 3]) -> [T; 3] {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
 
 #[inline(always)]
 #[must_use]
-pub(crate) fn scale<T: Real>(a: [T; 3], s: T) -> [T; 3] {
+pub(crate) fn scale<T: Arith>(a: [T; 3], s: T) -> [T; 3] {
     [a[0] * s, a[1] * s, a[2] * s]
 }
 
 #[inline(always)]
 #[must_use]
-pub(crate) fn neg<T: Real>(a: [T; 3]) -> [T; 3] {
+pub(crate) fn neg<T: Arith>(a: [T; 3]) -> [T; 3] {
     [-a[0], -a[1], -a[2]]
 }
 
 #[inline(always)]
 #[must_use]
-pub(crate) fn dot<T: Real>(a: [T; 3], b: [T; 3]) -> T {
+pub(crate) fn dot<T: Arith>(a: [T; 3], b: [T; 3]) -> T {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
 #[inline(always)]
 #[must_use]
-pub(crate) fn cross<T: Real>(a: [T; 3], b: [T; 3]) -> [T; 3] {
+pub(crate) fn cross<T: Arith>(a: [T; 3], b: [T; 3]) -> [T; 3] {
     [
         a[1] * b[2] - a[2] * b[1],
         a[2] * b[0] - a[0] * b[2],
@@ -198,7 +214,7 @@ pub(crate) fn cross<T: Real>(a: [T; 3], b: [T; 3]) -> [T; 3] {
 /// `a + s b`.
 #[inline(always)]
 #[must_use]
-pub(crate) fn axpy<T: Real>(a: [T; 3], s: T, b: [T; 3]) -> [T; 3] {
+pub(crate) fn axpy<T: Arith>(a: [T; 3], s: T, b: [T; 3]) -> [T; 3] {
     [a[0] + s * b[0], a[1] + s * b[1], a[2] + s * b[2]]
 }
 
@@ -245,7 +261,7 @@ pub(crate) fn regular(n2: f32) -> bool {
 /// Determinant of the 3×3 matrix with columns `a`, `b`, `c`: `a · (b × c)`.
 #[inline]
 #[must_use]
-pub(crate) fn det3<T: Real>(a: [T; 3], b: [T; 3], c: [T; 3]) -> T {
+pub(crate) fn det3<T: Arith>(a: [T; 3], b: [T; 3], c: [T; 3]) -> T {
     dot(a, cross(b, c))
 }
 
@@ -262,7 +278,7 @@ pub(crate) type Mat3 = [[f32; 3]; 3];
 ))]
 #[inline(always)]
 #[must_use]
-pub(crate) fn mat_vec<T: Real>(m: &[[T; 3]; 3], v: [T; 3]) -> [T; 3] {
+pub(crate) fn mat_vec<T: Arith>(m: &[[T; 3]; 3], v: [T; 3]) -> [T; 3] {
     [dot(m[0], v), dot(m[1], v), dot(m[2], v)]
 }
 

@@ -376,7 +376,7 @@ impl<S: Storage> Scene<S> {
         self.nodes().get(i as usize)
     }
 
-    fn nodes(&self) -> &[Node] {
+    pub(crate) fn nodes(&self) -> &[Node] {
         self.store
             .parts()
             .0
@@ -385,7 +385,7 @@ impl<S: Storage> Scene<S> {
     }
 
     /// Element `e`, if the scene has it.
-    fn element(&self, e: usize) -> Option<Element> {
+    pub(crate) fn element(&self, e: usize) -> Option<Element> {
         if e >= self.hdr.n_elems {
             return None;
         }
