@@ -44,6 +44,14 @@ pub enum MeshError {
         /// The extension found, without the dot (`None` if there is none).
         extension: Option<String>,
     },
+    /// The surface file name has no extension this crate reads (`.obj`,
+    /// `.stl`).
+    UnknownSurfaceExtension {
+        /// The file.
+        file: String,
+        /// The extension found, without the dot (`None` if there is none).
+        extension: Option<String>,
+    },
     /// The file does not have the structure its format requires (a missing or wrong
     /// header or section marker, the wrong number of values on a line, ...).
     Malformed {
@@ -162,6 +170,7 @@ impl MeshError {
         match self {
             MeshError::Io { file, .. }
             | MeshError::UnknownExtension { file, .. }
+            | MeshError::UnknownSurfaceExtension { file, .. }
             | MeshError::Malformed { file, .. }
             | MeshError::Truncated { file, .. }
             | MeshError::CountMismatch { file, .. }
@@ -188,6 +197,7 @@ impl MeshError {
             | MeshError::Parse { line, .. } => *line,
             MeshError::Io { .. }
             | MeshError::UnknownExtension { .. }
+            | MeshError::UnknownSurfaceExtension { .. }
             | MeshError::NoTetrahedra { .. } => None,
         }
     }
@@ -234,6 +244,13 @@ impl MeshError {
                     None => write!(f, "mesh file name has no extension")?,
                 }
                 write!(f, " (expected .tetmesh, .msh, .vtk or .vtu)")
+            }
+            MeshError::UnknownSurfaceExtension { extension, .. } => {
+                match extension {
+                    Some(ext) => write!(f, "unknown surface file extension \".{ext}\"")?,
+                    None => write!(f, "surface file name has no extension")?,
+                }
+                write!(f, " (expected .obj or .stl)")
             }
             MeshError::Malformed {
                 expected, found, ..

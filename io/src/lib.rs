@@ -9,16 +9,21 @@
 //! * [`mesh_stats`] reports counts, bounding box, volumes, inverted or flat
 //!   tetrahedra and the dihedral-angle range; [`drop_unused_nodes`] removes nodes
 //!   no tetrahedron uses.
+//! * [`read_surface`] reads a triangle [`Surface`] (Wavefront `.obj`, `.stl`)
+//!   to embed in a mesh (feature `surface`); [`parse_surface`] reads one from
+//!   bytes.
 //! * [`VtkSeries`] writes a simulation as `.vtu` frames plus a ParaView `.pvd`
 //!   collection; [`write_vtk_mesh`] and [`write_tetmesh`] write a single mesh.
 //!
 //! Third-party parsers do the heavy lifting where good ones exist: `mshio` for
-//! binary Gmsh MSH 4.1 and `vtkio` for VTK (reading and writing). The `.tetmesh`
+//! binary Gmsh MSH 4.1, `vtkio` for VTK (reading and writing), `tobj` for OBJ
+//! and `stl_io` for STL. The `.tetmesh`
 //! format and ASCII Gmsh files are parsed by hand (see the [`tetmesh`] and [`gmsh`]
 //! modules for why).
 //!
 //! Features: `vtk` (default) brings `vtkio`, the VTK readers, `write_vtk_mesh` and
-//! `VtkSeries`; `gmsh-binary` (default) brings `mshio` and binary MSH 4.1. Without
+//! `VtkSeries`; `gmsh-binary` (default) brings `mshio` and binary MSH 4.1;
+//! `surface` (default) brings `tobj`, `stl_io` and the surface readers. Without
 //! them the crate needs only `std` and the core and reads `.tetmesh` and ASCII
 //! `.msh` (the web demo's wasm module uses it so); a file in a format whose feature
 //! is off is a [`MeshError::Unsupported`].
@@ -45,6 +50,8 @@ mod mesh;
 #[cfg(feature = "vtk")]
 mod series;
 mod stats;
+#[cfg(feature = "surface")]
+pub mod surface;
 pub mod tetmesh;
 mod text;
 #[cfg(feature = "vtk")]
@@ -60,6 +67,8 @@ pub use mesh::{drop_unused_nodes, Mesh};
 #[cfg(feature = "vtk")]
 pub use series::{VtkSeries, PVD_NAME};
 pub use stats::{dihedral_angles_deg, mesh_stats, tet_volume, MeshStats, ZERO_VOLUME_RTOL};
+#[cfg(feature = "surface")]
+pub use surface::{parse_surface, read_surface, Surface, SurfaceFormat};
 pub use tetmesh::{format_tetmesh, parse_tetmesh, write_tetmesh};
 #[cfg(feature = "vtk")]
 pub use vtk::{parse_vtk_legacy, parse_vtu, write_vtk_mesh};
