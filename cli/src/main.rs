@@ -10,6 +10,7 @@ mod progress;
 mod result;
 mod run;
 mod select;
+mod visual;
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;

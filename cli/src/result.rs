@@ -34,6 +34,28 @@ pub struct RunResult {
     /// Records every `output.every` steps, including step 0 and the last step
     /// (static: one per Newton iteration).
     pub history: Vec<HistoryEntry>,
+    /// The `[visual]` surface, when the scene has one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub visual: Option<VisualResult>,
+}
+
+/// `visual` key: the embedded surface.
+#[derive(Debug, Clone, Serialize)]
+pub struct VisualResult {
+    /// Vertices of the surface file.
+    pub vertices: usize,
+    /// Triangles (polygons split into triangles).
+    pub triangles: usize,
+    /// Vertices inside a tetrahedron.
+    pub inside: u32,
+    /// Vertices outside the tetrahedra, extrapolated from the nearest one.
+    pub outside: u32,
+    /// Largest distance of a vertex from its tetrahedron at rest (m).
+    pub max_distance: f32,
+    /// How far outside a vertex was allowed (m).
+    pub reach: f32,
+    /// Vertex positions at the end (m), in the order of the file.
+    pub final_positions: Vec<[f32; 3]>,
 }
 
 /// `mesh` key.
@@ -390,6 +412,7 @@ mod tests {
                 inverted: 0,
             },
             history: vec![entry(0), entry(1)],
+            visual: None,
         }
     }
 

@@ -16,6 +16,7 @@ use crate::result::{
 };
 use crate::scene_file::{self, SceneSpec, StaticSpec, ToolSpec};
 use crate::select;
+use crate::visual::Visual;
 
 /// Command-line options of `corofem run`.
 #[derive(Debug, Clone)]
@@ -48,6 +49,10 @@ pub fn run(opts: &RunOptions) -> CliResult<()> {
         }
     }
     let mut sim = Sim::build(&spec, &mesh)?;
+    sim.visual = Visual::load(&spec, &sim.scene)?;
+    if let (Some(visual), Some(dir)) = (&mut sim.visual, &opts.vtk) {
+        visual.start_vtk(dir)?;
+    }
     let mut vtk = match &opts.vtk {
         None => None,
         Some(dir) => {
@@ -68,6 +73,12 @@ pub fn run(opts: &RunOptions) -> CliResult<()> {
             .map_err(|e| CliError(format!("--vtk: {e}")))?;
     }
     let final_state = sim.final_state()?;
+    let visual_summary = sim.visual.as_ref().map(Visual::summary);
+    let surface_frames = sim.visual.as_ref().and_then(Visual::frames);
+    let visual = match sim.visual.take() {
+        Some(v) => Some(v.finish(&sim.scene)?),
+        None => None,
+    };
     let result = RunResult {
         format: result::FORMAT,
         scene: spec.file.clone(),
@@ -81,6 +92,7 @@ pub fn run(opts: &RunOptions) -> CliResult<()> {
         timing: outcome.timing,
         final_state,
         history: outcome.history,
+        visual,
     };
     opts.out
         .write(&result::to_json(&result))
@@ -89,10 +101,19 @@ pub fn run(opts: &RunOptions) -> CliResult<()> {
         let vtk = opts.vtk.as_deref().map(|dir| VtkWritten {
             dir,
             frames: result.history.len(),
+            surface_frames,
         });
         eprintln!(
             "{}",
-            summary(&spec, &mesh, &result, &outcome.extremes, &opts.out, vtk)
+            summary(
+                &spec,
+                &mesh,
+                &result,
+                &outcome.extremes,
+                &opts.out,
+                vtk,
+                visual_summary
+            )
         );
     }
     Ok(())
@@ -170,6 +191,8 @@ struct Sim<'a> {
     tool: Option<Tool<'a>>,
     /// Scratch for `elastic_forces`.
     forces: Vec<[f32; 3]>,
+    /// The `[visual]` surface, bound after the build.
+    visual: Option<Visual>,
 }
 
 impl<'a> Sim<'a> {
@@ -264,6 +287,7 @@ impl<'a> Sim<'a> {
             scene,
             tool,
             forces: vec![[0.0; 3]; n],
+            visual: None,
         })
     }
 
@@ -498,7 +522,7 @@ impl<'a> Sim<'a> {
 
     /// Appends a record and writes its VTK frame.
     fn push(
-        &self,
+        &mut self,
         history: &mut Vec<HistoryEntry>,
         entry: HistoryEntry,
         vtk: Option<&mut VtkSeries>,
@@ -515,6 +539,9 @@ impl<'a> Sim<'a> {
             series
                 .write_frame(t, &x, &v)
                 .map_err(|e| CliError(format!("--vtk: {e}")))?;
+            if let Some(visual) = &mut self.visual {
+                visual.record(&self.scene, t)?;
+            }
         }
         history.push(entry);
         Ok(())
@@ -585,6 +612,8 @@ fn norm(v: [f32; 3]) -> f32 {
 struct VtkWritten<'a> {
     dir: &'a Path,
     frames: usize,
+    /// Frames of the `[visual]` surface, if the scene has one.
+    surface_frames: Option<usize>,
 }
 
 /// The summary printed on stderr: one labelled line per topic, values
@@ -596,6 +625,7 @@ fn summary(
     extremes: &Extremes,
     out: &Destination,
     vtk: Option<VtkWritten<'_>>,
+    visual: Option<String>,
 ) -> String {
     let mut lines: Vec<(&str, String)> = Vec::new();
     lines.push((
@@ -687,6 +717,9 @@ fn summary(
             format!("max |force| {} N", sig(f64::from(extremes.tool_force))),
         ));
     }
+    if let Some(v) = visual {
+        lines.push(("surface", v));
+    }
     lines.push((
         "result",
         match out {
@@ -703,6 +736,12 @@ fn summary(
                 v.dir.display()
             ),
         ));
+        if let Some(n) = v.surface_frames {
+            lines.push((
+                "",
+                format!("{n} surface frames beside them (open surface.pvd)"),
+            ));
+        }
     }
     let mut text = String::new();
     for (label, value) in lines {

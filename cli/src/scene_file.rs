@@ -37,8 +37,16 @@ struct RawScene {
     #[serde(default)]
     material_change: Vec<RawMaterialChange>,
     tool: Option<RawTool>,
+    visual: Option<RawVisual>,
     #[serde(default)]
     output: RawOutput,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawVisual {
+    file: String,
+    reach: Option<f64>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -231,6 +239,18 @@ pub struct ToolSpec {
     pub release: Option<f64>,
 }
 
+/// The `[visual]` table: a triangle surface carried by the tetrahedra.
+#[derive(Debug, Clone, PartialEq)]
+pub struct VisualSpec {
+    /// The surface file, resolved against the scene file's folder.
+    pub path: PathBuf,
+    /// The `file` value as written.
+    pub given: String,
+    /// How far outside the tetrahedra a vertex may lie (m, after
+    /// `[mesh] scale`); `None`: half the mean edge length.
+    pub reach: Option<f32>,
+}
+
 /// A fully validated scene.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SceneSpec {
@@ -260,6 +280,8 @@ pub struct SceneSpec {
     pub material_changes: Vec<MaterialChange>,
     /// `[tool]`.
     pub tool: Option<ToolSpec>,
+    /// `[visual]`.
+    pub visual: Option<VisualSpec>,
     /// `[output] every`.
     pub every: u64,
 }
@@ -557,6 +579,7 @@ impl Ctx<'_> {
         }
         material_changes.sort_by_key(|c| c.step);
         let tool = raw.tool.map(|t| self.tool(t)).transpose()?;
+        let visual = raw.visual.map(|v| self.visual(v, base)).transpose()?;
         let every = match raw.output.every {
             None => DEFAULT_EVERY,
             Some(n) => self.int("[output]", "every", n, 1, i64::MAX, "a whole number >= 1")?,
@@ -575,7 +598,30 @@ impl Ctx<'_> {
             initial,
             material_changes,
             tool,
+            visual,
             every,
+        })
+    }
+
+    fn visual(&self, v: RawVisual, base: &Path) -> CliResult<VisualSpec> {
+        const S: &str = "[visual]";
+        if v.file.is_empty() {
+            return Err(self.bad(S, "file", "\"\"", "the path of an .obj or .stl file"));
+        }
+        let reach = match v.reach {
+            None => None,
+            Some(r) => Some(self.real(
+                S,
+                "reach",
+                r,
+                |r| r >= 0.0,
+                "a distance >= 0 (m, after [mesh] scale)",
+            )?),
+        };
+        Ok(VisualSpec {
+            path: base.join(&v.file),
+            given: v.file,
+            reach,
         })
     }
 

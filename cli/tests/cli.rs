@@ -383,6 +383,135 @@ fn vtk_series_has_a_frame_per_history_record() {
     assert_eq!(pvd.matches("<DataSet").count(), 4);
 }
 
+/// An octahedron around the middle of `BEAM`, its tips 1 cm outside the
+/// top and bottom faces.
+const OCTAHEDRON: &str = "v 0.5 0.1 -0.01\nv 0.5 0.1 0.21\nv 0.4 0.1 0.1\nv 0.6 0.1 0.1\n\
+                          v 0.5 0.02 0.1\nv 0.5 0.18 0.1\n\
+                          f 1 4 5\nf 1 5 3\nf 1 3 6\nf 1 6 4\nf 2 5 4\nf 2 3 5\nf 2 6 3\nf 2 4 6\n";
+
+#[test]
+fn a_visual_surface_moves_with_the_body_and_beside_the_vtk_frames() {
+    let dir = TempDir::new("visual");
+    dir.write("octahedron.obj", OCTAHEDRON);
+    let visual = "[visual]\nfile = \"octahedron.obj\"\n";
+    dir.write("scene.toml", format!("{BEAM}{DYNAMIC}{visual}"));
+    let o = corofem(
+        &["run", "scene.toml", "--out", "r.json", "--vtk", "frames"],
+        &dir.0,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let r: Value = serde_json::from_str(&fs::read_to_string(dir.path("r.json")).unwrap()).unwrap();
+    let v = &r["visual"];
+    assert_eq!(v["vertices"], 6);
+    assert_eq!(v["triangles"], 8);
+    assert_eq!(v["inside"], 4);
+    assert_eq!(v["outside"], 2);
+    assert!(
+        (v["max_distance"].as_f64().unwrap() - 0.01).abs() < 1e-6,
+        "{v}"
+    );
+    // The default reach: half the mean edge length of the tetrahedra.
+    let reach = v["reach"].as_f64().unwrap();
+    assert!(reach > 0.05 && reach < 0.2, "{reach}");
+    let p = v["final_positions"].as_array().unwrap();
+    assert_eq!(p.len(), 6);
+    // The body sagged: the surface went down with it, in file order (the
+    // bottom tip first).
+    let (bottom, top) = (vec3(&p[0]), vec3(&p[1]));
+    assert!(bottom[2] < -0.01 && top[2] < 0.21, "{bottom:?} {top:?}");
+    assert!(
+        (top[2] - bottom[2] - 0.22).abs() < 0.01,
+        "{bottom:?} {top:?}"
+    );
+    let pvd = fs::read_to_string(dir.path("frames/surface.pvd")).unwrap();
+    assert_eq!(pvd.matches("<DataSet").count(), 4);
+    assert!(dir.path("frames/surface_000003.vtu").exists());
+    let lines = summary_lines(&o);
+    assert!(
+        lines.iter().any(|l| l.starts_with(
+            "surface    6 vertices, 8 triangles, 2 outside the tetrahedra (at most 1.00e-2 m"
+        )),
+        "{lines:#?}"
+    );
+    assert!(
+        lines
+            .iter()
+            .any(|l| l.ends_with("4 surface frames beside them (open surface.pvd)")),
+        "{lines:#?}"
+    );
+
+    // Without [visual], no `visual` key.
+    let r = run_ok(&dir, &format!("{BEAM}{DYNAMIC}"));
+    assert!(r.get("visual").is_none());
+}
+
+#[test]
+fn a_bad_visual_surface_is_a_clear_error() {
+    let dir = TempDir::new("visual-bad");
+    let scene = |extra: &str| format!("{BEAM}[solver]\nsteps = 2\n[visual]\n{extra}");
+    // Too far for the reach given, and in other units.
+    dir.write("octahedron.obj", OCTAHEDRON);
+    let e = run_err_keeping(&dir, &scene("file = \"octahedron.obj\"\nreach = 0.005\n"));
+    assert!(
+        e.contains("scene.toml: [visual] file = \"octahedron.obj\": vertex 0 at [0.5, 0.1, -0.01] lies farther than 0.005 m"),
+        "{e}"
+    );
+    assert!(e.contains("Raise `reach`"), "{e}");
+    let mm: String = OCTAHEDRON
+        .lines()
+        .map(|l| match l.strip_prefix("v ") {
+            Some(xyz) => {
+                let c: Vec<f64> = xyz
+                    .split(' ')
+                    .map(|x| x.parse::<f64>().unwrap() * 1e3)
+                    .collect();
+                format!("v {} {} {}\n", c[0], c[1], c[2])
+            }
+            None => format!("{l}\n"),
+        })
+        .collect();
+    dir.write("mm.obj", &mm);
+    let e = run_err_keeping(&dir, &scene("file = \"mm.obj\"\n"));
+    assert!(e.contains("(reach = 0.5 mean edge lengths)"), "{e}");
+    assert!(e.contains("in the mesh's units and place"), "{e}");
+    // Files that are not surfaces.
+    dir.write(
+        "flat.obj",
+        "v 0.5 0.1 0.1\nv 0.6 0.1 0.1\nv 0.7 0.1 0.1\nf 1 2 3\n",
+    );
+    let e = run_err_keeping(&dir, &scene("file = \"flat.obj\"\n"));
+    assert!(e.contains("surface triangle 0 is degenerate"), "{e}");
+    dir.write("empty.obj", "# nothing\n");
+    let e = run_err_keeping(&dir, &scene("file = \"empty.obj\"\n"));
+    assert!(
+        e.contains("empty.obj: expected at least one triangle, found none"),
+        "{e}"
+    );
+    let e = run_err_keeping(&dir, &scene("file = \"missing.stl\"\n"));
+    assert!(e.contains("missing.stl: cannot read file"), "{e}");
+    let e = run_err_keeping(&dir, &scene("file = \"octahedron.ply\"\n"));
+    assert!(e.contains("(expected .obj or .stl)"), "{e}");
+    // Keys.
+    let e = run_err_keeping(&dir, &scene("file = \"octahedron.obj\"\nreach = -1.0\n"));
+    assert!(
+        e.contains("[visual] reach = -1.0: expected a distance >= 0"),
+        "{e}"
+    );
+    let e = run_err_keeping(&dir, &scene("file = \"octahedron.obj\"\ncolour = 1\n"));
+    assert!(e.contains("colour"), "{e}");
+    let e = run_err_keeping(&dir, &scene("reach = 1.0\n"));
+    assert!(e.contains("file"), "{e}");
+}
+
+/// Like `run_err`, in a folder that holds other files: the run fails with
+/// exit code 1 and writes no result.
+fn run_err_keeping(dir: &TempDir, scene: &str) -> String {
+    let o = run_scene(dir, scene);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(!dir.path("result.json").exists());
+    stderr(&o)
+}
+
 #[test]
 fn stdout_and_default_destinations() {
     let dir = TempDir::new("dest");

@@ -697,6 +697,25 @@ impl<S: Storage> Scene<S> {
         self.element(e).map(|el| el.stiffness * (6.0 * el.six_v0()))
     }
 
+    /// Mean length of the tetrahedra's edges at rest (m), each edge counted
+    /// once per tetrahedron it belongs to; 0 before a build. A length scale
+    /// for what depends on the element size: a picking radius, the `reach`
+    /// of an embedded surface.
+    #[must_use]
+    pub fn mean_edge_length(&self) -> f32 {
+        let nodes = self.nodes();
+        let x0 = |i: u16| nodes.get(usize::from(i)).map_or([0.0; 3], |n| n.x0);
+        let mut sum = 0.0f64;
+        for e in 0..self.hdr.n_elems {
+            let Some(el) = self.element(e) else { break };
+            for (a, b) in [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)] {
+                let d = crate::math::sub(x0(el.nodes[b]), x0(el.nodes[a]));
+                sum += f64::from(crate::math::sqrt(crate::math::dot(d, d)));
+            }
+        }
+        (sum / (6 * self.hdr.n_elems).max(1) as f64) as f32
+    }
+
     /// Rest volume of element `e` (m³).
     #[must_use]
     pub fn rest_volume(&self, e: usize) -> Option<f32> {

@@ -103,7 +103,11 @@ pub struct BindStats {
 #[must_use]
 pub const fn surface_scratch_len(vertices: usize) -> usize {
     let cells = if vertices == 0 { 1 } else { vertices };
-    cells + 1 + 2 * vertices
+    // Saturating: a count whose scratch `usize` cannot hold asks for the
+    // largest length, which no slice has, so binding refuses it.
+    cells
+        .saturating_add(1)
+        .saturating_add(vertices.saturating_mul(2))
 }
 
 /// A triangle is degenerate when `|e₁ × e₂| ≤ 4 ε |e₁| |e₂|` (ε of f32) for
@@ -162,64 +166,97 @@ impl<S: Storage> Scene<S> {
             });
         }
         validate_surface(vertices, triangles)?;
-        let bindings = &mut bindings[..n];
         if n == 0 {
             return Ok(BindStats::default());
         }
         let grid = Grid::new(vertices);
-        let (starts, rest) = scratch.split_at_mut(grid.cells() + 1);
-        let (order, best) = rest.split_at_mut(n);
-        let best = &mut best[..n];
+        // At most one cell per vertex, so these fit in the scratch checked
+        // above; `None` cannot happen.
+        let parts = scratch
+            .split_at_mut_checked(grid.cells() + 1)
+            .and_then(|(starts, rest)| {
+                let (order, best) = rest.split_at_mut_checked(n)?;
+                Some((starts, order, best.get_mut(..n)?))
+            });
+        let Some((starts, order, best)) = parts else {
+            return Err(Error::InvalidParameter {
+                parameter: Parameter::SurfaceScratch,
+            });
+        };
         grid.sort(vertices, starts, order);
         best.fill(f32::INFINITY.to_bits());
 
+        // Two passes: each tetrahedron first takes the vertices it contains
+        // (through its own bounding box), then, grown by `reach`, the
+        // nearest of those left outside every tetrahedron. A vertex inside
+        // one is never measured against the others, which is most of the
+        // work on a surface that hugs the mesh.
         let reach = f64::from(reach);
-        let reach2 = reach * reach;
         let nodes = self.nodes();
-        for e in 0..self.hdr.n_elems {
-            let Some(el) = self.element(e) else { break };
-            let tet = el.nodes.map(u32::from);
-            let Some(tet_x) = corners(nodes, tet) else {
-                continue;
-            };
-            let shape = TetShape::new(tet_x);
-            let (lo, hi) = shape.grown_box(reach);
-            let (c0, c1) = (grid.cell_of_f64(lo), grid.cell_of_f64(hi));
-            for cz in c0[2]..=c1[2] {
-                for cy in c0[1]..=c1[1] {
-                    for cx in c0[0]..=c1[0] {
-                        let cell = grid.index([cx, cy, cz]);
-                        let (Some(&s), Some(&t)) = (starts.get(cell), starts.get(cell + 1)) else {
-                            continue;
-                        };
-                        for &v in order.get(s as usize..t as usize).unwrap_or_default() {
-                            let vi = v as usize;
-                            let (Some(&rest), Some(slot), Some(b)) =
-                                (vertices.get(vi), best.get_mut(vi), bindings.get_mut(vi))
+        for grow in [None, Some(reach)] {
+            for e in 0..self.hdr.n_elems {
+                let Some(el) = self.element(e) else { break };
+                let tet = el.nodes.map(u32::from);
+                let Some(tet_x) = corners(nodes, tet) else {
+                    continue;
+                };
+                let shape = TetShape::new(tet_x);
+                let (lo, hi) = shape.grown_box(grow.unwrap_or(0.0));
+                let (c0, c1) = (grid.cell_of_f64(lo), grid.cell_of_f64(hi));
+                for cz in c0[2]..=c1[2] {
+                    for cy in c0[1]..=c1[1] {
+                        for cx in c0[0]..=c1[0] {
+                            let cell = grid.index([cx, cy, cz]);
+                            let (Some(&s), Some(&t)) = (starts.get(cell), starts.get(cell + 1))
                             else {
                                 continue;
                             };
-                            let p = rest.map(f64::from);
-                            if !inside_box(p, lo, hi) {
-                                continue;
-                            }
-                            let w = shape.weights(p);
-                            let key = match shape.distance2(p, w) {
-                                None => -w.iter().fold(f64::INFINITY, |m, &x| m.min(x)),
-                                Some(d2) if d2 <= reach2 => d2,
-                                Some(_) => continue,
-                            };
-                            // Keys compare as f32: the order is the same on
-                            // every target, and ties go to the first
-                            // tetrahedron in mesh order.
-                            let key = key as f32;
-                            if key < f32::from_bits(*slot) {
-                                *slot = key.to_bits();
-                                *b = SurfaceBinding {
-                                    nodes: tet,
-                                    weights: w.map(|x| x as f32),
-                                    rest,
+                            for &v in order.get(s as usize..t as usize).unwrap_or_default() {
+                                let vi = v as usize;
+                                let (Some(&rest), Some(slot), Some(b)) =
+                                    (vertices.get(vi), best.get_mut(vi), bindings.get_mut(vi))
+                                else {
+                                    continue;
                                 };
+                                let p = rest.map(f64::from);
+                                let current = f32::from_bits(*slot);
+                                if !inside_box(p, lo, hi) || (grow.is_some() && current <= 0.0) {
+                                    continue;
+                                }
+                                let w = shape.weights(p);
+                                let key = match grow {
+                                    None => {
+                                        let least = w.iter().fold(f64::INFINITY, |m, &x| m.min(x));
+                                        if !(least >= 0.0) {
+                                            continue;
+                                        }
+                                        -least
+                                    }
+                                    Some(r) => {
+                                        // A cheap lower bound first: the
+                                        // distance to the faces' planes.
+                                        let limit = (r * r).min(f64::from(current));
+                                        if shape.plane_distance2(w) > limit {
+                                            continue;
+                                        }
+                                        match shape.distance2(p, w) {
+                                            Some(d2) if d2 <= r * r => d2,
+                                            _ => continue,
+                                        }
+                                    }
+                                };
+                                // Keys compare as f32: the order is the same
+                                // on every target, and ties go to the first
+                                // tetrahedron in mesh order.
+                                let key = key as f32;
+                                if key < current {
+                                    *slot = key.to_bits();
+                                    *b = SurfaceBinding {
+                                        nodes: tet,
+                                        weights: w.map(|x| x as f32),
+                                        rest,
+                                    };
+                                }
                             }
                         }
                     }
@@ -362,10 +399,10 @@ struct TetShape {
     x: [[f64; 3]; 4],
     /// Rows of `[b − a, c − a, d − a]⁻¹`: weights 1–3 of `p` are `rowᵢ·(p − a)`.
     inv: [[f64; 3]; 3],
+    /// `|∇wᵢ|²` of each weight: `wᵢ / |∇wᵢ|` is the signed distance to the
+    /// plane of the face opposite corner `i`.
+    grad2: [f64; 4],
 }
-
-/// The faces opposite each corner, by corner index.
-const FACES: [[usize; 3]; 4] = [[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]];
 
 impl TetShape {
     fn new(x: [[f64; 3]; 4]) -> Self {
@@ -375,22 +412,27 @@ impl TetShape {
         let det = dot(e1, cross(e2, e3));
         let s = 1.0 / det;
         let row = |r: [f64; 3]| r.map(|c| c * s);
-        Self {
-            x,
-            inv: [row(cross(e2, e3)), row(cross(e3, e1)), row(cross(e1, e2))],
-        }
+        let inv = [row(cross(e2, e3)), row(cross(e3, e1)), row(cross(e1, e2))];
+        let g0 = math::neg(math::add(math::add(inv[0], inv[1]), inv[2]));
+        let grad2 = [g0, inv[0], inv[1], inv[2]].map(|g| dot(g, g));
+        Self { x, inv, grad2 }
+    }
+
+    /// A lower bound of the squared distance from a point of weights `w`
+    /// to the tetrahedron: its squared distance to the farthest plane of a
+    /// face it lies beyond (0 inside).
+    fn plane_distance2(&self, w: [f64; 4]) -> f64 {
+        w.into_iter()
+            .zip(self.grad2)
+            .filter(|&(wi, _)| wi < 0.0)
+            .fold(0.0, |m, (wi, g2)| m.max(wi * wi / g2))
     }
 
     fn grown_box(&self, reach: f64) -> ([f64; 3], [f64; 3]) {
-        let mut lo = self.x[0];
-        let mut hi = self.x[0];
-        for p in &self.x[1..] {
-            for k in 0..3 {
-                lo[k] = lo[k].min(p[k]);
-                hi[k] = hi[k].max(p[k]);
-            }
-        }
-        (lo.map(|c| c - reach), hi.map(|c| c + reach))
+        let [a, b, c, d] = self.x;
+        let lo: [f64; 3] = core::array::from_fn(|k| a[k].min(b[k]).min(c[k]).min(d[k]) - reach);
+        let hi: [f64; 3] = core::array::from_fn(|k| a[k].max(b[k]).max(c[k]).max(d[k]) + reach);
+        (lo, hi)
     }
 
     fn weights(&self, p: [f64; 3]) -> [f64; 4] {
@@ -408,12 +450,13 @@ impl TetShape {
     /// (those opposite a negative weight), since the closest point of a
     /// convex body to a point outside lies on a face that point sees.
     fn distance2(&self, p: [f64; 3], w: [f64; 4]) -> Option<f64> {
+        let [a, b, c, d] = self.x;
+        // The face opposite each corner.
+        let faces = [[b, c, d], [a, c, d], [a, b, d], [a, b, c]];
         let mut d2 = None::<f64>;
-        for (i, face) in FACES.iter().enumerate() {
-            if w[i] < 0.0 {
-                let f = face.map(|k| self.x[k]);
-                let q = closest_on_triangle(p, f);
-                let r = sub(p, q);
+        for (face, wi) in faces.into_iter().zip(w) {
+            if wi < 0.0 {
+                let r = sub(p, closest_on_triangle(p, face));
                 let e = dot(r, r);
                 d2 = Some(d2.map_or(e, |m: f64| m.min(e)));
             }
@@ -508,7 +551,7 @@ impl Grid {
         core::array::from_fn(|k| {
             let c = (p[k] - self.lo[k]) * self.inv_size;
             // `as` saturates: negative and NaN give 0.
-            (c as usize).min(self.n[k] - 1)
+            (c as usize).min(self.n[k].saturating_sub(1))
         })
     }
 
@@ -526,8 +569,10 @@ impl Grid {
                 *s += 1;
             }
         }
-        for c in 1..starts.len() {
-            starts[c] += starts[c - 1];
+        let mut sum = 0u32;
+        for s in starts.iter_mut() {
+            sum += *s;
+            *s = sum;
         }
         // `starts[c]` is now where cell `c` begins; fill moving a cursor
         // that is then shifted back.
@@ -540,11 +585,9 @@ impl Grid {
                 *s += 1;
             }
         }
-        for c in (1..starts.len()).rev() {
-            starts[c] = starts[c - 1];
-        }
-        if let Some(s) = starts.first_mut() {
-            *s = 0;
+        let mut previous = 0;
+        for s in starts.iter_mut() {
+            previous = core::mem::replace(s, previous);
         }
     }
 }

@@ -101,6 +101,10 @@ pub mod f64v {
             a[0] * b[1] - a[1] * b[0],
         ]
     }
+    /// `a − b`.
+    pub fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+        [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+    }
     /// `|a|`.
     pub fn norm(a: [f64; 3]) -> f64 {
         (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt()
@@ -192,4 +196,16 @@ impl Rng {
             }
         }
     }
+}
+
+/// A smooth surface over a mesh: its boundary Loop-subdivided `levels`
+/// times. Convex parts of the limit surface lie inside the tetrahedra and
+/// concave ones outside, so it has vertices of both kinds; each level has
+/// four times the triangles.
+pub fn smooth_surface(mesh: &CoreMesh, levels: u32) -> corofem_io::Surface {
+    let mut s = corofem_io::boundary_surface(&mesh.nodes, &mesh.tets).expect("valid mesh");
+    for _ in 0..levels {
+        s = corofem_io::loop_subdivide(&s).expect("indices in range");
+    }
+    s
 }

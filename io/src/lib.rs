@@ -65,10 +65,13 @@ pub use gmsh::parse_msh;
 pub use heap::to_core;
 pub use mesh::{drop_unused_nodes, Mesh};
 #[cfg(feature = "vtk")]
-pub use series::{VtkSeries, PVD_NAME};
+pub use series::{VtkSeries, PVD_NAME, SURFACE_PVD_NAME};
 pub use stats::{dihedral_angles_deg, mesh_stats, tet_volume, MeshStats, ZERO_VOLUME_RTOL};
 #[cfg(feature = "surface")]
-pub use surface::{parse_surface, read_surface, Surface, SurfaceFormat};
+pub use surface::{
+    boundary_surface, boundary_triangles, loop_subdivide, parse_surface, read_surface, Surface,
+    SurfaceFormat,
+};
 pub use tetmesh::{format_tetmesh, parse_tetmesh, write_tetmesh};
 #[cfg(feature = "vtk")]
 pub use vtk::{parse_vtk_legacy, parse_vtu, write_vtk_mesh};

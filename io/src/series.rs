@@ -7,6 +7,8 @@
 //! DIR/frame_000001.vtu
 //! ...
 //! DIR/series.pvd          ParaView collection: every frame with its time
+//! DIR/surface_000000.vtu  an embedded surface's frames, if one is written
+//! DIR/surface.pvd         (triangles with vertex normals), and their collection
 //! ```
 //!
 //! Open `series.pvd` in ParaView. The `.pvd` is a few lines of XML written by hand;
@@ -17,12 +19,16 @@ use std::fs::{self, File};
 use std::io::{self, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 
-use vtkio::model::{IOBuffer, Version};
+use vtkio::model::{CellType, ElementType, IOBuffer, Version};
 
-use crate::vtk::{tet_grid, vector_attribute, write_vtu};
+use crate::vtk::{cell_grid, point_attribute, write_vtu};
 
 /// Name of the collection file inside the output directory.
 pub const PVD_NAME: &str = "series.pvd";
+
+/// Name of an embedded surface's collection file
+/// ([`VtkSeries::create_surface`]).
+pub const SURFACE_PVD_NAME: &str = "surface.pvd";
 
 const PVD_HEADER: &str = "<?xml version=\"1.0\"?>\n\
 <VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n  <Collection>\n";
@@ -33,6 +39,9 @@ const PVD_FOOTER: &str = "  </Collection>\n</VTKFile>\n";
 /// The mesh connectivity is fixed at [`create`](VtkSeries::create); each
 /// [`write_frame`](VtkSeries::write_frame) writes the current node positions as the
 /// grid's points and the node velocities as point data `"velocity"` (3 components).
+/// A series made by [`create_surface`](VtkSeries::create_surface) holds
+/// triangles instead, in `surface_*.vtu` frames listed in `surface.pvd`, and
+/// its point data is the vertex normals, `"normal"`, that ParaView shades with.
 ///
 /// ```no_run
 /// # fn main() -> std::io::Result<()> {
@@ -48,7 +57,9 @@ const PVD_FOOTER: &str = "  </Collection>\n</VTKFile>\n";
 #[derive(Debug)]
 pub struct VtkSeries {
     dir: PathBuf,
-    tets: Vec<[usize; 4]>,
+    /// The cells' point indices, one cell after the other.
+    cells: Vec<u64>,
+    kind: Kind,
     /// Smallest node count the connectivity allows (largest index + 1).
     min_nodes: usize,
     /// Node count fixed by the first frame.
@@ -66,17 +77,32 @@ impl VtkSeries {
     /// files in `dir` are overwritten as frames are written (stale frames beyond
     /// the new count stay on disk but are not listed in the `.pvd`).
     pub fn create(dir: &Path, tets: &[[usize; 4]]) -> io::Result<Self> {
+        let cells = tets.iter().flatten().map(|&i| i as u64).collect();
+        Self::start(dir, cells, Kind::Volume)
+    }
+
+    /// Creates `dir` if needed and starts an empty `surface.pvd`, for the
+    /// frames of an embedded triangle surface (`surface_000000.vtu`, ...):
+    /// beside a volume series in the same folder, it does not touch that
+    /// one's files. `triangles` index the vertices; they are copied.
+    pub fn create_surface(dir: &Path, triangles: &[[u32; 3]]) -> io::Result<Self> {
+        let cells = triangles.iter().flatten().map(|&i| u64::from(i)).collect();
+        Self::start(dir, cells, Kind::Surface)
+    }
+
+    fn start(dir: &Path, cells: Vec<u64>, kind: Kind) -> io::Result<Self> {
         fs::create_dir_all(dir).map_err(|e| with_path(dir, "cannot create directory", e))?;
-        let pvd_path = dir.join(PVD_NAME);
+        let pvd_path = dir.join(kind.pvd_name());
         let mut pvd =
             File::create(&pvd_path).map_err(|e| with_path(&pvd_path, "cannot create", e))?;
         pvd.write_all(PVD_HEADER.as_bytes())
             .and_then(|_| pvd.write_all(PVD_FOOTER.as_bytes()))
             .map_err(|e| with_path(&pvd_path, "cannot write", e))?;
-        let min_nodes = tets.iter().flatten().max().map_or(0, |&m| m + 1);
+        let min_nodes = cells.iter().max().map_or(0, |&m| m as usize + 1);
         Ok(VtkSeries {
             dir: dir.to_owned(),
-            tets: tets.to_vec(),
+            cells,
+            kind,
             min_nodes,
             n_nodes: None,
             frames: 0,
@@ -95,9 +121,14 @@ impl VtkSeries {
         self.frames
     }
 
-    /// Path of frame number `index` (`DIR/frame_000042.vtu`).
+    /// Path of frame number `index` (`DIR/frame_000042.vtu`, or
+    /// `DIR/surface_000042.vtu` for a surface).
     pub fn frame_path(&self, index: usize) -> PathBuf {
-        self.dir.join(format!("frame_{index:06}.vtu"))
+        let prefix = match self.kind {
+            Kind::Volume => "frame",
+            Kind::Surface => "surface",
+        };
+        self.dir.join(format!("{prefix}_{index:06}.vtu"))
     }
 
     /// Writes the next frame and lists it in `series.pvd`.
@@ -107,6 +138,7 @@ impl VtkSeries {
     /// * `positions` — current node positions (length unit of the mesh), one per node.
     /// * `velocities` — node velocities (length unit per second), one per node and
     ///   written as point data `"velocity"`; pass an empty slice to omit the field.
+    ///   For a surface series: the vertex normals, written as `"normal"`.
     ///
     /// Every frame must have the same node count, at least the largest node index of
     /// the connectivity plus one; otherwise an `InvalidInput` error is returned and
@@ -150,16 +182,30 @@ impl VtkSeries {
         let point_data = if velocities.is_empty() {
             Vec::new()
         } else {
-            vec![vector_attribute(
-                "velocity",
+            let (name, elem) = match self.kind {
+                Kind::Volume => ("velocity", ElementType::Vectors),
+                Kind::Surface => ("normal", ElementType::Normals),
+            };
+            vec![point_attribute(
+                name,
+                elem,
                 IOBuffer::F32(velocities.iter().flatten().copied().collect()),
             )]
         };
+        let (per_cell, cell_type) = match self.kind {
+            Kind::Volume => (4, CellType::Tetra),
+            Kind::Surface => (3, CellType::Triangle),
+        };
         let path = self.frame_path(self.frames);
-        write_vtu(
-            &path,
-            tet_grid(Version::new_xml(1, 0), points, &self.tets, point_data),
-        )?;
+        let grid = cell_grid(
+            Version::new_xml(1, 0),
+            points,
+            self.cells.clone(),
+            per_cell,
+            cell_type,
+            point_data,
+        );
+        write_vtu(&path, grid)?;
 
         // Overwrite the footer with the new entry followed by the footer.
         let file_name = path
@@ -182,9 +228,10 @@ impl VtkSeries {
         Ok(())
     }
 
-    /// Path of the collection file (`DIR/series.pvd`), the file to open in ParaView.
+    /// Path of the collection file (`DIR/series.pvd`, or `DIR/surface.pvd`),
+    /// the file to open in ParaView.
     pub fn pvd_path(&self) -> PathBuf {
-        self.dir.join(PVD_NAME)
+        self.dir.join(self.kind.pvd_name())
     }
 
     /// Finishes the series: flushes `series.pvd` to disk.
@@ -195,6 +242,24 @@ impl VtkSeries {
         self.pvd
             .sync_all()
             .map_err(|e| with_path(&self.pvd_path(), "cannot write", e))
+    }
+}
+
+/// What a series holds.
+#[derive(Debug, Clone, Copy)]
+enum Kind {
+    /// Tetrahedra, with node velocities.
+    Volume,
+    /// Triangles, with vertex normals.
+    Surface,
+}
+
+impl Kind {
+    fn pvd_name(self) -> &'static str {
+        match self {
+            Kind::Volume => PVD_NAME,
+            Kind::Surface => SURFACE_PVD_NAME,
+        }
     }
 }
 

@@ -336,8 +336,22 @@ pub(crate) fn tet_grid(
     tets: &[[usize; 4]],
     point_data: Vec<Attribute>,
 ) -> Vtk {
-    let connectivity: Vec<u64> = tets.iter().flatten().map(|&i| i as u64).collect();
-    let offsets: Vec<u64> = (1..=tets.len() as u64).map(|c| 4 * c).collect();
+    let flat: Vec<u64> = tets.iter().flatten().map(|&i| i as u64).collect();
+    cell_grid(version, points, flat, 4, CellType::Tetra, point_data)
+}
+
+/// Builds the vtkio model of an unstructured grid of cells of one type,
+/// `per_cell` points each, listed one after the other in `connectivity`.
+pub(crate) fn cell_grid(
+    version: Version,
+    points: IOBuffer,
+    connectivity: Vec<u64>,
+    per_cell: usize,
+    cell_type: CellType,
+    point_data: Vec<Attribute>,
+) -> Vtk {
+    let count = connectivity.len() / per_cell.max(1);
+    let offsets: Vec<u64> = (1..=count as u64).map(|c| per_cell as u64 * c).collect();
     Vtk {
         version,
         title: "corofem".to_owned(),
@@ -350,7 +364,7 @@ pub(crate) fn tet_grid(
                     offsets,
                     connectivity,
                 },
-                types: vec![CellType::Tetra; tets.len()],
+                types: vec![cell_type; count],
             },
             data: Attributes {
                 point: point_data,
@@ -360,11 +374,11 @@ pub(crate) fn tet_grid(
     }
 }
 
-/// A 3-component point-data array named `name`.
-pub(crate) fn vector_attribute(name: &str, data: IOBuffer) -> Attribute {
+/// A point-data array named `name` of kind `elem`.
+pub(crate) fn point_attribute(name: &str, elem: ElementType, data: IOBuffer) -> Attribute {
     Attribute::DataArray(DataArray {
         name: name.to_owned(),
-        elem: ElementType::Vectors,
+        elem,
         data,
     })
 }

@@ -9,6 +9,7 @@ mod common;
 use common::{assert_same_mesh, message, shared_tetmesh, two_tets, TempDir};
 use corofem_io::{
     parse_vtk_legacy, parse_vtu, read_mesh, write_vtk_mesh, MeshError, VtkSeries, PVD_NAME,
+    SURFACE_PVD_NAME,
 };
 use vtkio::model::{Attribute, DataSet, Piece};
 
@@ -393,6 +394,50 @@ fn series_writes_frames_and_pvd() {
     assert!(pvd.contains("timestep=\"0.0025\""), "{pvd}");
     series.finish().unwrap();
     assert_eq!(std::fs::read_to_string(out.join(PVD_NAME)).unwrap(), pvd);
+}
+
+#[test]
+fn a_surface_series_sits_beside_the_volume_series() {
+    let dir = TempDir::new("vtk-surface");
+    let mesh = two_tets();
+    let pos: Vec<[f32; 3]> = mesh.nodes.iter().map(|p| p.map(|c| c as f32)).collect();
+    let mut volume = VtkSeries::create(dir.path(), &mesh.tets).unwrap();
+    volume.write_frame(0.0, &pos, &[]).unwrap();
+    let tris = [[0u32, 1, 2], [1, 3, 2]];
+    let verts = [
+        [0.0f32, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [1.0, 1.0, 0.5],
+    ];
+    let normals = [[0.0f32, 0.0, 1.0]; 4];
+    let mut surface = VtkSeries::create_surface(dir.path(), &tris).unwrap();
+    assert_eq!(surface.pvd_path(), dir.path().join(SURFACE_PVD_NAME));
+    surface.write_frame(0.0, &verts, &normals).unwrap();
+    surface.write_frame(0.1, &verts, &normals).unwrap();
+    let frame = surface.frame_path(1);
+    assert!(frame.ends_with("surface_000001.vtu"));
+    assert_eq!(
+        point_array(&frame, "normal").expect("normal array"),
+        normals.iter().flatten().copied().collect::<Vec<_>>()
+    );
+    let vtk = vtkio::Vtk::import(&frame).unwrap();
+    let DataSet::UnstructuredGrid { pieces, .. } = vtk.data else {
+        panic!("not an unstructured grid");
+    };
+    let Piece::Inline(piece) = pieces.into_iter().next().unwrap() else {
+        panic!("not inline");
+    };
+    assert_eq!(piece.cells.types, vec![vtkio::model::CellType::Triangle; 2]);
+    let (connectivity, offsets) = piece.cells.cell_verts.into_xml();
+    assert_eq!(offsets, vec![3, 6]);
+    assert_eq!(connectivity, vec![0, 1, 2, 1, 3, 2]);
+    // Each series lists its own frames.
+    let pvd = std::fs::read_to_string(dir.path().join(SURFACE_PVD_NAME)).unwrap();
+    assert_eq!(pvd.matches("file=\"surface_").count(), 2, "{pvd}");
+    let pvd = std::fs::read_to_string(dir.path().join(PVD_NAME)).unwrap();
+    assert_eq!(pvd.matches("<DataSet ").count(), 1, "{pvd}");
+    assert!(pvd.contains("file=\"frame_000000.vtu\""), "{pvd}");
 }
 
 #[test]
