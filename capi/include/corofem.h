@@ -63,6 +63,10 @@ enum corofem_status
     COROFEM_STATUS_UNUSED_NODE = -16,
     // The step produced NaN or infinite values and was not applied.
     COROFEM_STATUS_DIVERGED = -17,
+    // A surface vertex lies farther than the reach from every tetrahedron.
+    COROFEM_STATUS_VERTEX_TOO_FAR = -18,
+    // A surface triangle repeats a vertex or has collinear corners.
+    COROFEM_STATUS_DEGENERATE_TRIANGLE = -19,
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -471,6 +475,21 @@ corofem_status corofem_last_stats(corofem_scene *scene, corofem_stats *out_stats
 //
 // `scene` is a handle (or null); `out` is writable for `out_len` floats.
 corofem_status corofem_positions(corofem_scene *scene, float *out, size_t out_len);
+
+// Sets the current positions (m) of all nodes: `node_count` (the scene's
+// node count) positions of 3 floats each. Displacements follow as position
+// − rest; velocities are kept, and fixed nodes take the positions given
+// too (they then stay there). A count other than the scene's node count,
+// or a position that is not finite, is `COROFEM_STATUS_INVALID_ARGUMENT`
+// and changes nothing.
+//
+// # Safety
+//
+// `scene` is a handle (or null); `positions` holds `3 node_count` floats
+// and lies outside the scene buffer.
+corofem_status corofem_set_positions(corofem_scene *scene,
+                                     const float *positions,
+                                     size_t node_count);
 
 // Writes the current velocities (m/s) of all nodes, 3 floats each, into
 // `out` of `out_len` floats (at least 3 × node count).

@@ -814,6 +814,33 @@ pub unsafe extern "C" fn corofem_positions(
     })())
 }
 
+/// Sets the current positions (m) of all nodes: `node_count` (the scene's
+/// node count) positions of 3 floats each. Displacements follow as position
+/// − rest; velocities are kept, and fixed nodes take the positions given
+/// too (they then stay there). A count other than the scene's node count,
+/// or a position that is not finite, is `COROFEM_STATUS_INVALID_ARGUMENT`
+/// and changes nothing.
+///
+/// # Safety
+///
+/// `scene` is a handle (or null); `positions` holds `3 node_count` floats
+/// and lies outside the scene buffer.
+#[no_mangle]
+pub unsafe extern "C" fn corofem_set_positions(
+    scene: *mut SceneHandle,
+    positions: *const f32,
+    node_count: usize,
+) -> Status {
+    status((|| {
+        // SAFETY: the caller's contract.
+        let s = unsafe { built(scene)? };
+        // SAFETY: as above.
+        let p = unsafe { input(positions.cast::<[f32; 3]>(), node_count, Some(s))? };
+        s.scene.set_positions(p)?;
+        Ok(())
+    })())
+}
+
 /// Writes the current velocities (m/s) of all nodes, 3 floats each, into
 /// `out` of `out_len` floats (at least 3 × node count).
 ///

@@ -448,3 +448,41 @@ fn box_mesh_and_messages() {
         assert_eq!(ok.to_str().unwrap(), "ok");
     }
 }
+
+/// `corofem_set_positions` takes exactly the scene's node count of finite
+/// positions, and refuses anything else with the scene unchanged.
+#[test]
+fn set_positions_checks_its_input() {
+    let f = Fixture::built();
+    let before = f.hash();
+    let mut p = NODES;
+    // SAFETY: a live handle; arrays of the stated lengths, or null.
+    unsafe {
+        assert_eq!(
+            corofem_set_positions(f.h, p.as_ptr().cast(), 4),
+            Status::InvalidArgument
+        );
+        assert_eq!(corofem_set_positions(f.h, null(), 5), Status::NullPointer);
+        let odd = p.as_ptr().cast::<u8>().add(1).cast::<f32>();
+        assert_eq!(corofem_set_positions(f.h, odd, 4), Status::Misaligned);
+        let inside = f.h.cast::<u8>().add(64).cast::<f32>();
+        assert_eq!(corofem_set_positions(f.h, inside, 5), Status::Overlap);
+        p[1][0] = f32::INFINITY;
+        assert_eq!(
+            corofem_set_positions(f.h, p.as_ptr().cast(), 5),
+            Status::InvalidArgument
+        );
+        assert_eq!(f.hash(), before);
+        let unbuilt = Fixture::new(8, 4);
+        assert_eq!(
+            corofem_set_positions(unbuilt.h, NODES.as_ptr().cast(), 5),
+            Status::NotBuilt
+        );
+        p = NODES;
+        p[4] = [1.5, 1.0, 1.0];
+        assert_eq!(corofem_set_positions(f.h, p.as_ptr().cast(), 5), Status::Ok);
+        let mut x = [0.0f32; 3];
+        assert_eq!(corofem_position(f.h, 4, x.as_mut_ptr()), Status::Ok);
+        assert_eq!(x, [1.5, 1.0, 1.0]);
+    }
+}
