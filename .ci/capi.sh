@@ -34,6 +34,8 @@ pass "header up to date, compiles as C99 and C++"
 step "fmt and clippy"
 cargo fmt --manifest-path $MANIFEST -- --check
 cargo clippy --manifest-path $MANIFEST --all-targets -- -D warnings
+# The firmware's feature set on the host: no surfaces, no ground.
+cargo clippy --manifest-path $MANIFEST --all-targets --no-default-features --features qr -- -D warnings
 pass "fmt and clippy"
 
 step "staticlib and the C example on the host"
@@ -49,6 +51,8 @@ pass "C example on the host"
 
 step "Rust API, C functions from Rust, and the C program: same hashes"
 COROFEM_C_EXAMPLE="$OUT/haptic_loop" cargo test --manifest-path $MANIFEST
+# Without the feature `surface` its functions are there and say so.
+cargo test --manifest-path $MANIFEST --no-default-features --features qr --test api -- surfaces_are_unsupported
 pass "Rust tests, hashes from Rust, from the C functions and from the C program agree"
 
 step "the same C example on a Cortex-M4F (thumbv7em staticlib, arm-none-eabi-gcc, QEMU mps2-an386)"

@@ -10,6 +10,10 @@
  * through the Rust API and checks that the hashes are equal; .ci/capi.sh
  * runs this program on the host and, cross-compiled, on a Cortex-M4F in QEMU.
  *
+ * On the box it also binds an embedded surface (a tube around the beam),
+ * checks it at rest and prints where its tip ring ends up; a library built
+ * without the feature `surface` (the Cortex-M4F's) says so instead.
+ *
  * Scenes (both must match capi/tests/haptic_loop.rs exactly):
  *   box   (default) a 10 cm × 2 cm × 2 cm beam, 99 nodes / 240 tets,
  *         fixed at x = 0, grabbed at x = 10 cm, pulled down and back.
@@ -70,6 +74,25 @@ static float positions[MAX_NODES * 3];
 #define AGGREGATE_BYTES (64 * 176 + 385 * 48 * 32)
 #endif
 static unsigned char arena[MAX_NODES * 160 + MAX_TETS * 136 + AGGREGATE_BYTES + 512];
+
+/* An embedded surface for the box: an open tube of radius 1.2 cm around the
+ * beam's axis (12 vertices on each of 11 rings, 1 cm apart), partly inside
+ * the 2 cm square section and partly outside it, bound once and moved with
+ * the beam. */
+#define SKIN_RING 12
+#define SKIN_RINGS 11
+#define SKIN_V (SKIN_RING * SKIN_RINGS)
+#define SKIN_T (2 * SKIN_RING * (SKIN_RINGS - 1))
+static float skin_xyz[SKIN_V * 3];
+static uint32_t skin_tris[SKIN_T * 3];
+static float skin_out[SKIN_V * 3];
+static float skin_normals[SKIN_V * 3];
+/* The binding buffer: 44 B per vertex, 12 B per triangle and a header
+ * (corofem_surface_bytes gives the exact need); the scratch is needed only
+ * while binding. */
+static unsigned char skin_buffer[SKIN_V * 44 + SKIN_T * 12 + 128];
+static uint32_t skin_scratch[3 * SKIN_V + 1];
+static corofem_surface *skin = NULL;
 
 #define CHECK(call)                                                              \
     do {                                                                         \
@@ -136,6 +159,67 @@ static int64_t step_ns[100000];
 static float triangle(uint32_t step) {
     float a = (float)(step % 1000u) / 1000.0f;
     return a < 0.5f ? 2.0f * a : 2.0f - 2.0f * a;
+}
+
+/* Binds the tube to the box scene and checks it at rest: every vertex where
+ * it was given, every normal of unit length. Returns 0 on success, 1 on
+ * error, 2 if the library was built without surfaces. */
+static int bind_skin(corofem_scene *scene) {
+    size_t bytes = 0, scratch_len = 0, where = 0;
+    corofem_bind_stats found;
+    corofem_status st = corofem_surface_bytes(SKIN_V, SKIN_T, &bytes, &scratch_len);
+    if (st == COROFEM_STATUS_UNSUPPORTED) return 2;
+    CHECK(st);
+    if (bytes > sizeof skin_buffer || scratch_len > sizeof skin_scratch / sizeof skin_scratch[0]) {
+        printf("error: the surface needs %lu bytes and %lu of scratch\n", (unsigned long)bytes,
+               (unsigned long)scratch_len);
+        return 1;
+    }
+    /* cos(15 + 30 k degrees), as literals: no libm needed. The vertices at
+     * 45 degrees are inside the beam, the others up to 1.6 mm outside. */
+    static const float c12[SKIN_RING] = {0.9659258f,  0.7071068f,  0.2588190f,  -0.2588190f,
+                                         -0.7071068f, -0.9659258f, -0.9659258f, -0.7071068f,
+                                         -0.2588190f, 0.2588190f,  0.7071068f,  0.9659258f};
+    for (uint32_t r = 0; r < SKIN_RINGS; r++) {
+        for (uint32_t k = 0; k < SKIN_RING; k++) {
+            float *p = &skin_xyz[3 * (r * SKIN_RING + k)];
+            p[0] = 0.01f * (float)r;
+            p[1] = 0.01f + 0.012f * c12[k];
+            p[2] = 0.01f + 0.012f * c12[(k + 9) % SKIN_RING]; /* sin a = cos(a - 90 degrees) */
+        }
+    }
+    for (uint32_t r = 0; r + 1 < SKIN_RINGS; r++) {
+        for (uint32_t k = 0; k < SKIN_RING; k++) {
+            uint32_t a = r * SKIN_RING + k, b = r * SKIN_RING + (k + 1) % SKIN_RING;
+            uint32_t *t = &skin_tris[6 * (r * SKIN_RING + k)];
+            /* Counter-clockwise seen from outside: outward normals. */
+            t[0] = a, t[1] = b, t[2] = a + SKIN_RING;
+            t[3] = b, t[4] = b + SKIN_RING, t[5] = a + SKIN_RING;
+        }
+    }
+    st = corofem_bind_surface(scene, skin_xyz, SKIN_V, skin_tris, SKIN_T, 0.003f, skin_buffer,
+                              sizeof skin_buffer, skin_scratch, scratch_len, &skin, &found, &where);
+    if (st != COROFEM_STATUS_OK) {
+        printf("error: binding the surface -> %d (%s) at %lu\n", (int)st, corofem_status_str(st),
+               (unsigned long)where);
+        return 1;
+    }
+    CHECK(corofem_update_surface(scene, skin, skin_out, 3 * SKIN_V, skin_normals, 3 * SKIN_V));
+    for (size_t i = 0; i < 3 * SKIN_V; i += 3) {
+        const float *n = &skin_normals[i];
+        float len2 = n[0] * n[0] + n[1] * n[1] + n[2] * n[2];
+        if (memcmp(&skin_out[i], &skin_xyz[i], sizeof(float[3])) != 0 || len2 < 0.9999f ||
+            len2 > 1.0001f) {
+            printf("error: surface vertex %lu at rest\n", (unsigned long)(i / 3));
+            return 1;
+        }
+    }
+    printf("surface: %u vertices, %u triangles, %lu bytes (+%lu while binding): %lu inside, "
+           "%lu outside, at most %.4f m out\n",
+           (unsigned)SKIN_V, (unsigned)SKIN_T, (unsigned long)bytes,
+           (unsigned long)(scratch_len * sizeof(uint32_t)), (unsigned long)found.inside,
+           (unsigned long)found.outside, (double)found.max_distance);
+    return 0;
 }
 
 static const char USAGE[] =
@@ -234,6 +318,11 @@ int main(int argc, char **argv) {
     /* %lu, not %zu: newlib's printf does not know %zu. */
     printf("scene %s: %lu nodes, %lu tets, %lu bytes\n", is_box ? "box" : mesh, (unsigned long)n,
            (unsigned long)t, (unsigned long)bytes);
+    if (is_box) {
+        int r = bind_skin(scene);
+        if (r == 1) return 1;
+        if (r == 2) printf("surface: not in this library\n");
+    }
 
 #if HAVE_CLOCK
     if (steps > sizeof step_ns / sizeof step_ns[0]) steps = sizeof step_ns / sizeof step_ns[0];
@@ -280,6 +369,16 @@ int main(int argc, char **argv) {
         printf("\n");
     }
 #endif
+    if (skin) {
+        /* Each frame a renderer would do this: the tube's tip ring, moved. */
+        CHECK(corofem_update_surface(scene, skin, skin_out, 3 * SKIN_V, skin_normals, 3 * SKIN_V));
+        float tip[3] = {0.0f, 0.0f, 0.0f};
+        for (uint32_t k = 0; k < SKIN_RING; k++) {
+            for (int c = 0; c < 3; c++) tip[c] += skin_out[3 * ((SKIN_RINGS - 1) * SKIN_RING + k) + c];
+        }
+        printf("surface tip ring centre %.6f %.6f %.6f m\n", (double)(tip[0] / SKIN_RING),
+               (double)(tip[1] / SKIN_RING), (double)(tip[2] / SKIN_RING));
+    }
     /* Error handling: every misuse is a status code. */
     if (corofem_step(NULL, NULL) != COROFEM_STATUS_NULL_POINTER ||
         corofem_fix_nodes(scene, (const uint32_t[]){100000}, 1) != COROFEM_STATUS_INDEX_OUT_OF_RANGE ||

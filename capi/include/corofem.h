@@ -26,21 +26,26 @@ enum corofem_status
     COROFEM_STATUS_OK = 0,
     // A pointer that must not be null was null.
     COROFEM_STATUS_NULL_POINTER = -1,
-    // The handle is not a live scene: never initialised, de-initialised,
-    // misaligned, or its buffer was copied or moved after initialisation.
+    // The handle is not a live scene or surface: never initialised,
+    // de-initialised, misaligned, or its buffer was copied or moved after
+    // initialisation; or a surface bound to another mesh than the scene's.
     COROFEM_STATUS_INVALID_HANDLE = -2,
-    // A caller buffer is smaller than the call needs (scene buffer or output array).
+    // A caller buffer is smaller than the call needs (scene or surface
+    // buffer, scratch or output array).
     COROFEM_STATUS_BUFFER_TOO_SMALL = -3,
     // An array pointer is not aligned for its element type (4 bytes for
     // `float` and `uint32_t`).
     COROFEM_STATUS_MISALIGNED = -4,
-    // An input or output array overlaps the scene's own buffer.
+    // An input or output array overlaps the scene's or the surface's own
+    // buffer, or another array of the call that is written.
     COROFEM_STATUS_OVERLAP = -5,
     // More nodes or tetrahedra than the scene was sized for, more than
-    // 65 536 nodes, or a size that does not fit in `size_t`.
+    // 65 536 nodes, more surface vertices than `uint32_t` indexes, or a
+    // size that does not fit in `size_t`.
     COROFEM_STATUS_CAPACITY = -6,
     // A node or element index does not exist in the built scene (or, in a
-    // tetrahedron, in the node array).
+    // tetrahedron, in the node array; in a surface triangle, in the vertex
+    // array).
     COROFEM_STATUS_INDEX_OUT_OF_RANGE = -7,
     // A parameter is out of its documented range, not finite, or an unknown
     // flag or method code.
@@ -51,7 +56,7 @@ enum corofem_status
     COROFEM_STATUS_NOT_BUILT = -10,
     // The mesh has no tetrahedron.
     COROFEM_STATUS_NO_ELEMENTS = -11,
-    // A node coordinate is NaN or infinite.
+    // A node or surface vertex coordinate is NaN or infinite.
     COROFEM_STATUS_NON_FINITE_COORDINATE = -12,
     // A tetrahedron lists the same node twice.
     COROFEM_STATUS_REPEATED_NODE = -13,
@@ -63,6 +68,10 @@ enum corofem_status
     COROFEM_STATUS_UNUSED_NODE = -16,
     // The step produced NaN or infinite values and was not applied.
     COROFEM_STATUS_DIVERGED = -17,
+    // A surface vertex lies farther than the reach from every tetrahedron.
+    COROFEM_STATUS_VERTEX_TOO_FAR = -18,
+    // A surface triangle repeats a vertex or has collinear corners.
+    COROFEM_STATUS_DEGENERATE_TRIANGLE = -19,
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -121,6 +130,9 @@ typedef uint32_t corofem_preconditioner;
 
 // The scene handle: the front of the caller's buffer. Opaque to C.
 typedef struct corofem_scene corofem_scene;
+
+// The surface handle: the front of the caller's surface buffer. Opaque to C.
+typedef struct corofem_surface corofem_surface;
 
 // An isotropic material.
 typedef struct {
@@ -191,6 +203,20 @@ typedef struct {
     // before it made while nothing did work on the body.
     float energy_removed;
 } corofem_stats;
+
+// What `corofem_bind_surface` found.
+typedef struct {
+    // Vertices inside a tetrahedron (on its faces included).
+    uint32_t inside;
+    // Vertices outside the mesh, within the reach: they follow the affine
+    // map of their nearest tetrahedron.
+    uint32_t outside;
+    // The largest distance of a vertex from its tetrahedron (m); 0 when
+    // every vertex is inside.
+    float max_distance;
+    // The vertex at that distance (0 when every vertex is inside).
+    uint32_t farthest_vertex;
+} corofem_bind_stats;
 
 #ifdef __cplusplus
 extern "C" {
@@ -472,6 +498,21 @@ corofem_status corofem_last_stats(corofem_scene *scene, corofem_stats *out_stats
 // `scene` is a handle (or null); `out` is writable for `out_len` floats.
 corofem_status corofem_positions(corofem_scene *scene, float *out, size_t out_len);
 
+// Sets the current positions (m) of all nodes: `node_count` (the scene's
+// node count) positions of 3 floats each. Displacements follow as position
+// − rest; velocities are kept, and fixed nodes take the positions given
+// too (they then stay there). A count other than the scene's node count,
+// or a position that is not finite, is `COROFEM_STATUS_INVALID_ARGUMENT`
+// and changes nothing.
+//
+// # Safety
+//
+// `scene` is a handle (or null); `positions` holds `3 node_count` floats
+// and lies outside the scene buffer.
+corofem_status corofem_set_positions(corofem_scene *scene,
+                                     const float *positions,
+                                     size_t node_count);
+
 // Writes the current velocities (m/s) of all nodes, 3 floats each, into
 // `out` of `out_len` floats (at least 3 × node count).
 //
@@ -503,6 +544,98 @@ corofem_status corofem_state_hash(corofem_scene *scene, uint64_t *out_hash);
 //
 // `scene` is a handle (or null).
 corofem_status corofem_reset_state(corofem_scene *scene);
+
+// Writes how many bytes a surface of `vertex_count` vertices and
+// `triangle_count` triangles needs to `*out_bytes`: 44 bytes per vertex
+// (its binding), 12 per triangle (a copy of it, for the normals), a header
+// and a few bytes of slack, so that a buffer of that size works at any
+// address. Writes to `*out_scratch_len` how many `uint32_t` of scratch
+// `corofem_bind_surface` needs (`3 vertex_count + 1`; 2 for none), memory
+// that is free again after the call. `COROFEM_STATUS_UNSUPPORTED` if the
+// library was built without `surface`.
+//
+// # Safety
+//
+// The outputs are null or writable.
+corofem_status corofem_surface_bytes(size_t vertex_count,
+                                     size_t triangle_count,
+                                     size_t *out_bytes,
+                                     size_t *out_scratch_len);
+
+// Binds a triangle surface to the built scene's mesh, once. Each of the
+// `vertex_count` vertices (3 floats each, m, in the mesh's rest
+// coordinates) is bound to the tetrahedron that contains it or, if it lies
+// outside the mesh, to the nearest tetrahedron within `reach` (m, finite,
+// ≥ 0; farther is `COROFEM_STATUS_VERTEX_TOO_FAR`). The `triangle_count`
+// triangles (3 vertex indices each) are checked (indices in range, three
+// distinct vertices, corners not collinear) and copied: the normals of
+// `corofem_update_surface` come from that copy.
+//
+// The surface goes into `buffer` of `buffer_bytes` bytes (at least
+// `corofem_surface_bytes`, at any address) and its handle, which points
+// into it, to `*out_surface`. The buffer must stay in place, unused by
+// anything else, while the surface is used. `scratch` holds `scratch_len`
+// `uint32_t` (at least `corofem_surface_bytes`'s scratch length); it is
+// clobbered, and free again after the call. What the binding found goes to
+// `*out_stats` (may be null). Nothing is allocated. The scene is never
+// changed.
+//
+// On an error in the surface itself (`COROFEM_STATUS_NON_FINITE_COORDINATE`
+// and `COROFEM_STATUS_VERTEX_TOO_FAR` name a vertex,
+// `COROFEM_STATUS_INDEX_OUT_OF_RANGE` and
+// `COROFEM_STATUS_DEGENERATE_TRIANGLE` a triangle, whose index goes to
+// `*out_where`, which may be null) the buffer holds no surface: a surface
+// bound in it before is refused from then on. Errors in the other
+// arguments (null, misaligned or overlapping pointers, small buffers, a
+// negative or non-finite reach, an unbuilt scene) change nothing.
+// `COROFEM_STATUS_UNSUPPORTED` if the library was built without `surface`.
+//
+// # Safety
+//
+// `scene` is a handle (or null); `vertices` holds `3 vertex_count` floats
+// and `triangles` `3 triangle_count` indices (either may be null when its
+// count is 0); `buffer` is null or valid for writes of `buffer_bytes`
+// bytes; `scratch` is writable for `scratch_len` values; the outputs are
+// null or writable. No array may lie inside the scene buffer, and no
+// written array may overlap another array.
+corofem_status corofem_bind_surface(corofem_scene *scene,
+                                    const float *vertices,
+                                    size_t vertex_count,
+                                    const uint32_t *triangles,
+                                    size_t triangle_count,
+                                    float reach,
+                                    void *buffer,
+                                    size_t buffer_bytes,
+                                    uint32_t *scratch,
+                                    size_t scratch_len,
+                                    corofem_surface **out_surface,
+                                    corofem_bind_stats *out_stats,
+                                    size_t *out_where);
+
+// Moves a bound surface with the body: the current position of each
+// vertex (3 floats, m) into `out_positions` of `positions_len` floats (at
+// least 3 × its vertex count) and, when `out_normals` is not null, each
+// vertex's unit normal into `out_normals` of `normals_len` floats (as
+// many): the area-weighted mean of its triangles' normals, outward for
+// triangles counter-clockwise seen from outside; `0, 0, 0` for a vertex in
+// no triangle. Any scene built from the mesh the surface was bound to
+// moves it; a scene built from another mesh refuses it
+// (`COROFEM_STATUS_INVALID_HANDLE`). The scene is not changed, and on
+// error nothing is written. `COROFEM_STATUS_UNSUPPORTED` if the library
+// was built without `surface`.
+//
+// # Safety
+//
+// `scene` and `surface` are handles (or null); `out_positions` is writable
+// for `positions_len` floats, `out_normals` null or writable for
+// `normals_len` floats. Neither lies inside the scene or the surface
+// buffer, nor overlaps the other.
+corofem_status corofem_update_surface(corofem_scene *scene,
+                                      const corofem_surface *surface,
+                                      float *out_positions,
+                                      size_t positions_len,
+                                      float *out_normals,
+                                      size_t normals_len);
 
 #ifdef __cplusplus
 }  // extern "C"

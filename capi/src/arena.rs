@@ -62,6 +62,10 @@ pub struct SceneHandle {
     pub(crate) steps: u64,
     /// Statistics of the last step.
     pub(crate) last: StepStats,
+    /// The id of the mesh of the last build (`surface::mesh_id`): the
+    /// surfaces bound to it are the ones this scene moves.
+    #[cfg(feature = "surface")]
+    pub(crate) mesh: u64,
     /// The scene; its storage is the rest of the buffer.
     pub(crate) scene: Scene<SliceStorage<'static>>,
 }
@@ -243,6 +247,8 @@ pub unsafe fn init(
             built: false,
             steps: 0,
             last: StepStats::default(),
+            #[cfg(feature = "surface")]
+            mesh: 0,
             scene: Scene::with_storage(storage),
         });
         Ok(handle)

@@ -12,6 +12,12 @@
 //!  corofem_set_settings / corofem_fix_nodes / corofem_grab
 //!  loop: corofem_step_haptic(s, target, force, &stats)   1 kHz
 //!  corofem_positions / corofem_last_stats / corofem_state_hash
+//!
+//!  embedded surface (feature `surface`), bound once, moved each frame:
+//!  corofem_surface_bytes(V, M, &bytes, &scratch_len)
+//!  corofem_bind_surface(s, xyz, V, tris, M, reach, buf, bytes, scratch, len,
+//!                       &surf, &stats, &where)
+//!  corofem_update_surface(s, surf, out_xyz, 3V, out_normals, 3V)
 //! ```
 //!
 //! Every function returns a [`Status`]: `COROFEM_STATUS_OK` (0) or a negative
@@ -43,13 +49,15 @@ mod api;
 mod arena;
 mod ptr;
 mod status;
+mod surface;
 mod types;
 
 pub use api::*;
 pub use arena::{scene_bytes, SceneHandle, Slots, COROFEM_MAX_NODES};
 pub use status::Status;
+pub use surface::SurfaceHandle;
 pub use types::{
-    Material, MethodCode, PreconditionerCode, Settings, Stats, COROFEM_BUILD_REORIENT,
+    BindStats, Material, MethodCode, PreconditionerCode, Settings, Stats, COROFEM_BUILD_REORIENT,
 };
 
 /// Bare-metal staticlibs need a panic handler; nothing in this crate or the

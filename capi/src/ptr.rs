@@ -27,6 +27,9 @@ unsafe impl Plain for u64 {}
 unsafe impl Plain for usize {}
 // SAFETY: as above.
 unsafe impl Plain for f64 {}
+// SAFETY: a raw pointer is an address; every bit pattern is one (handles
+// written out are only ever read back as addresses, and checked).
+unsafe impl<T> Plain for *mut T {}
 // SAFETY: an array of a `Plain` type.
 unsafe impl<T: Plain, const N: usize> Plain for [T; N] {}
 

@@ -14,21 +14,26 @@ pub enum Status {
     Ok = 0,
     /// A pointer that must not be null was null.
     NullPointer = -1,
-    /// The handle is not a live scene: never initialised, de-initialised,
-    /// misaligned, or its buffer was copied or moved after initialisation.
+    /// The handle is not a live scene or surface: never initialised,
+    /// de-initialised, misaligned, or its buffer was copied or moved after
+    /// initialisation; or a surface bound to another mesh than the scene's.
     InvalidHandle = -2,
-    /// A caller buffer is smaller than the call needs (scene buffer or output array).
+    /// A caller buffer is smaller than the call needs (scene or surface
+    /// buffer, scratch or output array).
     BufferTooSmall = -3,
     /// An array pointer is not aligned for its element type (4 bytes for
     /// `float` and `uint32_t`).
     Misaligned = -4,
-    /// An input or output array overlaps the scene's own buffer.
+    /// An input or output array overlaps the scene's or the surface's own
+    /// buffer, or another array of the call that is written.
     Overlap = -5,
     /// More nodes or tetrahedra than the scene was sized for, more than
-    /// 65 536 nodes, or a size that does not fit in `size_t`.
+    /// 65 536 nodes, more surface vertices than `uint32_t` indexes, or a
+    /// size that does not fit in `size_t`.
     Capacity = -6,
     /// A node or element index does not exist in the built scene (or, in a
-    /// tetrahedron, in the node array).
+    /// tetrahedron, in the node array; in a surface triangle, in the vertex
+    /// array).
     IndexOutOfRange = -7,
     /// A parameter is out of its documented range, not finite, or an unknown
     /// flag or method code.
@@ -39,7 +44,7 @@ pub enum Status {
     NotBuilt = -10,
     /// The mesh has no tetrahedron.
     NoElements = -11,
-    /// A node coordinate is NaN or infinite.
+    /// A node or surface vertex coordinate is NaN or infinite.
     NonFiniteCoordinate = -12,
     /// A tetrahedron lists the same node twice.
     RepeatedNode = -13,
@@ -98,7 +103,8 @@ impl Status {
 pub struct Failure {
     /// The code.
     pub status: Status,
-    /// The offending element (element errors) or node (node errors).
+    /// The offending element (element errors), node (node errors), surface
+    /// vertex (vertex errors) or surface triangle (triangle errors).
     pub at: Option<usize>,
 }
 

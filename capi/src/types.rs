@@ -189,6 +189,22 @@ pub struct Stats {
     pub energy_removed: f32,
 }
 
+/// What `corofem_bind_surface` found.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct BindStats {
+    /// Vertices inside a tetrahedron (on its faces included).
+    pub inside: u32,
+    /// Vertices outside the mesh, within the reach: they follow the affine
+    /// map of their nearest tetrahedron.
+    pub outside: u32,
+    /// The largest distance of a vertex from its tetrahedron (m); 0 when
+    /// every vertex is inside.
+    pub max_distance: f32,
+    /// The vertex at that distance (0 when every vertex is inside).
+    pub farthest_vertex: u32,
+}
+
 // SAFETY: `repr(C)` structs of integers and floats only: every bit pattern
 // (padding aside, which is never read as a value) is valid.
 unsafe impl Plain for Material {}
@@ -196,3 +212,5 @@ unsafe impl Plain for Material {}
 unsafe impl Plain for Settings {}
 // SAFETY: as above.
 unsafe impl Plain for Stats {}
+// SAFETY: as above.
+unsafe impl Plain for BindStats {}

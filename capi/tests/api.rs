@@ -448,3 +448,871 @@ fn box_mesh_and_messages() {
         assert_eq!(ok.to_str().unwrap(), "ok");
     }
 }
+
+/// `corofem_set_positions` takes exactly the scene's node count of finite
+/// positions, and refuses anything else with the scene unchanged.
+#[test]
+fn set_positions_checks_its_input() {
+    let f = Fixture::built();
+    let before = f.hash();
+    let mut p = NODES;
+    // SAFETY: a live handle; arrays of the stated lengths, or null.
+    unsafe {
+        assert_eq!(
+            corofem_set_positions(f.h, p.as_ptr().cast(), 4),
+            Status::InvalidArgument
+        );
+        assert_eq!(corofem_set_positions(f.h, null(), 5), Status::NullPointer);
+        let odd = p.as_ptr().cast::<u8>().add(1).cast::<f32>();
+        assert_eq!(corofem_set_positions(f.h, odd, 4), Status::Misaligned);
+        let inside = f.h.cast::<u8>().add(64).cast::<f32>();
+        assert_eq!(corofem_set_positions(f.h, inside, 5), Status::Overlap);
+        p[1][0] = f32::INFINITY;
+        assert_eq!(
+            corofem_set_positions(f.h, p.as_ptr().cast(), 5),
+            Status::InvalidArgument
+        );
+        assert_eq!(f.hash(), before);
+        let unbuilt = Fixture::new(8, 4);
+        assert_eq!(
+            corofem_set_positions(unbuilt.h, NODES.as_ptr().cast(), 5),
+            Status::NotBuilt
+        );
+        p = NODES;
+        p[4] = [1.5, 1.0, 1.0];
+        assert_eq!(corofem_set_positions(f.h, p.as_ptr().cast(), 5), Status::Ok);
+        let mut x = [0.0f32; 3];
+        assert_eq!(corofem_position(f.h, 4, x.as_mut_ptr()), Status::Ok);
+        assert_eq!(x, [1.5, 1.0, 1.0]);
+    }
+}
+
+/// Without the feature `surface` the surface functions are there, and say
+/// so.
+#[cfg(not(feature = "surface"))]
+#[test]
+fn surfaces_are_unsupported_without_the_feature() {
+    let f = Fixture::built();
+    let (mut bytes, mut scratch) = (0, 0);
+    let mut out = [0.0f32; 3];
+    // SAFETY: a live handle and locals; nothing is read or written.
+    unsafe {
+        assert_eq!(
+            corofem_surface_bytes(1, 0, &mut bytes, &mut scratch),
+            Status::Unsupported
+        );
+        let mut h = null_mut();
+        let st = corofem_bind_surface(
+            f.h,
+            [0.1f32; 3].as_ptr(),
+            1,
+            null(),
+            0,
+            0.0,
+            null_mut(),
+            0,
+            null_mut(),
+            0,
+            &mut h,
+            null_mut(),
+            null_mut(),
+        );
+        assert_eq!(st, Status::Unsupported);
+        let st = corofem_update_surface(f.h, null(), out.as_mut_ptr(), 3, null_mut(), 0);
+        assert_eq!(st, Status::Unsupported);
+    }
+}
+
+/// Embedded surfaces through the C functions: binding, moving with the
+/// body, normals, and every misuse.
+#[cfg(feature = "surface")]
+mod surface {
+    use super::*;
+
+    use std::path::PathBuf;
+
+    /// A small tetrahedron inside `TETS[0]`, outward triangles.
+    const SKIN: [[f32; 3]; 4] = [
+        [0.1, 0.1, 0.1],
+        [0.5, 0.1, 0.1],
+        [0.1, 0.5, 0.1],
+        [0.1, 0.1, 0.5],
+    ];
+    const SKIN_TRIS: [[u32; 3]; 4] = [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]];
+
+    /// A surface buffer on the heap (8-aligned, 8 spare bytes so it can
+    /// start at any offset), its scratch, and a handle once bound.
+    struct Skin {
+        buf: Vec<u64>,
+        bytes: usize,
+        scratch: Vec<u32>,
+        h: *mut SurfaceHandle,
+    }
+
+    /// The result of one `corofem_bind_surface`.
+    #[derive(Debug, PartialEq)]
+    struct Bound {
+        status: Status,
+        stats: BindStats,
+        at: usize,
+    }
+
+    const NO_STATS: BindStats = BindStats {
+        inside: 77,
+        outside: 77,
+        max_distance: 77.0,
+        farthest_vertex: 77,
+    };
+
+    impl Skin {
+        fn new(vertices: usize, triangles: usize) -> Self {
+            let (mut bytes, mut scratch) = (0, 0);
+            // SAFETY: out-pointers to locals.
+            let st =
+                unsafe { corofem_surface_bytes(vertices, triangles, &mut bytes, &mut scratch) };
+            assert_eq!(st, Status::Ok);
+            Self {
+                buf: vec![0u64; bytes.div_ceil(8) + 1],
+                bytes,
+                scratch: vec![0u32; scratch],
+                h: null_mut(),
+            }
+        }
+
+        /// Binds at byte offset `off` of the buffer; the handle is kept
+        /// only on success.
+        fn bind_at(
+            &mut self,
+            f: &Fixture,
+            vertices: &[[f32; 3]],
+            tris: &[[u32; 3]],
+            reach: f32,
+            off: usize,
+        ) -> Bound {
+            let mut h = null_mut();
+            let mut stats = NO_STATS;
+            let mut at = usize::MAX;
+            // SAFETY: arrays of the stated lengths; the buffer has `bytes`
+            // bytes from any offset below 8.
+            let status = unsafe {
+                corofem_bind_surface(
+                    f.h,
+                    vertices.as_ptr().cast(),
+                    vertices.len(),
+                    tris.as_ptr().cast(),
+                    tris.len(),
+                    reach,
+                    self.buf.as_mut_ptr().cast::<u8>().add(off).cast(),
+                    self.bytes,
+                    self.scratch.as_mut_ptr(),
+                    self.scratch.len(),
+                    &mut h,
+                    &mut stats,
+                    &mut at,
+                )
+            };
+            if status == Status::Ok {
+                self.h = h;
+            } else {
+                assert!(h.is_null(), "no handle out on error");
+                assert_eq!(stats, NO_STATS, "no statistics out on error");
+            }
+            Bound { status, stats, at }
+        }
+
+        fn bind(
+            &mut self,
+            f: &Fixture,
+            vertices: &[[f32; 3]],
+            tris: &[[u32; 3]],
+            reach: f32,
+        ) -> Bound {
+            self.bind_at(f, vertices, tris, reach, 0)
+        }
+    }
+
+    /// Positions and normals.
+    type Frame = (Vec<[f32; 3]>, Vec<[f32; 3]>);
+
+    /// The frame of a surface of `n` vertices, or the status.
+    fn update(f: &Fixture, h: *const SurfaceHandle, n: usize) -> Result<Frame, Status> {
+        let mut p = vec![[9.0f32; 3]; n];
+        let mut q = vec![[9.0f32; 3]; n];
+        // SAFETY: outputs of the stated lengths.
+        let st = unsafe {
+            corofem_update_surface(
+                f.h,
+                h,
+                p.as_mut_ptr().cast(),
+                3 * n,
+                q.as_mut_ptr().cast(),
+                3 * n,
+            )
+        };
+        if st == Status::Ok {
+            Ok((p, q))
+        } else {
+            assert!(
+                p.iter().chain(&q).all(|v| *v == [9.0; 3]),
+                "outputs untouched"
+            );
+            Err(st)
+        }
+    }
+
+    /// One pointer to the byte after `p`: misaligned for anything larger.
+    fn odd<T>(p: *const T) -> *const T {
+        p.cast::<u8>().wrapping_add(1).cast()
+    }
+
+    fn odd_mut<T>(p: *mut T) -> *mut T {
+        p.cast::<u8>().wrapping_add(1).cast()
+    }
+
+    /// The arguments of a `corofem_bind_surface` of 4 vertices and 4
+    /// triangles, to vary one at a time.
+    #[derive(Clone, Copy)]
+    struct BindArgs {
+        scene: *mut SceneHandle,
+        vertices: *const [f32; 3],
+        triangles: *const [u32; 3],
+        reach: f32,
+        buffer: *mut u8,
+        bytes: usize,
+        scratch: *mut u32,
+        scratch_len: usize,
+        out: *mut *mut SurfaceHandle,
+    }
+
+    impl BindArgs {
+        /// The status; checks that the statistics and the culprit's index
+        /// were not written.
+        fn call(self) -> Status {
+            let mut stats = NO_STATS;
+            let mut at = usize::MAX;
+            // SAFETY: every pointer is null, misaligned, inside another
+            // buffer (all refused before any access), or an array of the
+            // stated length.
+            let st = unsafe {
+                corofem_bind_surface(
+                    self.scene,
+                    self.vertices.cast(),
+                    4,
+                    self.triangles.cast(),
+                    4,
+                    self.reach,
+                    self.buffer.cast(),
+                    self.bytes,
+                    self.scratch,
+                    self.scratch_len,
+                    self.out,
+                    &mut stats,
+                    &mut at,
+                )
+            };
+            assert_eq!(
+                (stats, at),
+                (NO_STATS, usize::MAX),
+                "{st:?}: outputs untouched"
+            );
+            st
+        }
+    }
+
+    /// The arguments of a `corofem_update_surface`, to vary one at a time.
+    #[derive(Clone, Copy)]
+    struct UpdateArgs {
+        scene: *mut SceneHandle,
+        surface: *const SurfaceHandle,
+        positions: *mut f32,
+        positions_len: usize,
+        normals: *mut f32,
+        normals_len: usize,
+    }
+
+    impl UpdateArgs {
+        fn call(self) -> Status {
+            // SAFETY: as in `BindArgs::call`.
+            unsafe {
+                corofem_update_surface(
+                    self.scene,
+                    self.surface,
+                    self.positions,
+                    self.positions_len,
+                    self.normals,
+                    self.normals_len,
+                )
+            }
+        }
+    }
+
+    fn shared_mesh(name: &str) -> Option<PathBuf> {
+        let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+            .join("../../shared/meshes")
+            .join(name);
+        if p.is_file() {
+            Some(p)
+        } else if std::env::var_os("COROFEM_REQUIRE_MESHES").is_some() {
+            panic!(
+                "COROFEM_REQUIRE_MESHES is set but {} is missing",
+                p.display()
+            );
+        } else {
+            eprintln!("SKIPPED: ../shared/meshes/{name} not found");
+            None
+        }
+    }
+
+    type V3 = [f64; 3];
+
+    fn sub(a: V3, b: V3) -> V3 {
+        [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+    }
+
+    fn cross(a: V3, b: V3) -> V3 {
+        [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ]
+    }
+
+    fn dot(a: V3, b: V3) -> f64 {
+        a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+    }
+
+    fn norm(a: V3) -> f64 {
+        dot(a, a).sqrt()
+    }
+
+    fn wide(p: [f32; 3]) -> V3 {
+        p.map(f64::from)
+    }
+
+    /// A detailed surface over a tetrahedral mesh: its boundary triangles
+    /// (faces of one tetrahedron only, turned outward), each split into
+    /// four at its edge midpoints, and the vertices pushed `offset` (m)
+    /// along their normals, every other one outward (most of those then lie
+    /// just outside the mesh) and the others inward.
+    fn skin_of(
+        nodes: &[[f32; 3]],
+        tets: &[[u32; 4]],
+        offset: f64,
+    ) -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
+        use std::collections::HashMap;
+        let mut faces: HashMap<[u32; 3], ([u32; 3], usize)> = HashMap::new();
+        for t in tets {
+            for (k, face) in [[1, 2, 3], [0, 2, 3], [0, 1, 3], [0, 1, 2]]
+                .iter()
+                .enumerate()
+            {
+                let mut f = face.map(|i| t[i]);
+                let [a, b, c] = f.map(|i| wide(nodes[i as usize]));
+                let away = sub(wide(nodes[t[k] as usize]), a);
+                if dot(cross(sub(b, a), sub(c, a)), away) > 0.0 {
+                    f.swap(1, 2);
+                }
+                let mut key = f;
+                key.sort_unstable();
+                faces.entry(key).or_insert((f, 0)).1 += 1;
+            }
+        }
+        let mut boundary: Vec<[u32; 3]> = faces
+            .values()
+            .filter(|(_, c)| *c == 1)
+            .map(|(f, _)| *f)
+            .collect();
+        boundary.sort_unstable();
+        let mut index: HashMap<(u32, u32), u32> = HashMap::new();
+        let mut verts: Vec<V3> = Vec::new();
+        let mut vertex = |a: u32, b: u32, verts: &mut Vec<V3>| {
+            let key = (a.min(b), a.max(b));
+            *index.entry(key).or_insert_with(|| {
+                let p = wide(nodes[a as usize]);
+                let q = wide(nodes[b as usize]);
+                verts.push([
+                    0.5 * (p[0] + q[0]),
+                    0.5 * (p[1] + q[1]),
+                    0.5 * (p[2] + q[2]),
+                ]);
+                (verts.len() - 1) as u32
+            })
+        };
+        let mut tris = Vec::new();
+        for [a, b, c] in boundary {
+            let (a2, b2, c2) = (
+                vertex(a, a, &mut verts),
+                vertex(b, b, &mut verts),
+                vertex(c, c, &mut verts),
+            );
+            let (ab, bc, ca) = (
+                vertex(a, b, &mut verts),
+                vertex(b, c, &mut verts),
+                vertex(c, a, &mut verts),
+            );
+            tris.extend([[a2, ab, ca], [ab, b2, bc], [ca, bc, c2], [ab, bc, ca]]);
+        }
+        let mut normals = vec![[0.0f64; 3]; verts.len()];
+        for t in &tris {
+            let [a, b, c] = t.map(|i| verts[i as usize]);
+            let n = cross(sub(b, a), sub(c, a));
+            for &i in t {
+                let m = &mut normals[i as usize];
+                *m = [m[0] + n[0], m[1] + n[1], m[2] + n[2]];
+            }
+        }
+        let out = verts
+            .iter()
+            .zip(&normals)
+            .enumerate()
+            .map(|(i, (p, n))| {
+                let s = if i % 2 == 0 { offset } else { -offset } / norm(*n);
+                [0, 1, 2].map(|k| (p[k] + s * n[k]) as f32)
+            })
+            .collect();
+        (out, tris)
+    }
+
+    /// A scene of `nodes` and `tets` through the C functions.
+    fn scene_of(nodes: &[[f32; 3]], tets: &[[u32; 4]]) -> Fixture {
+        let f = Fixture::new(nodes.len(), tets.len());
+        assert_eq!(f.build(nodes, tets, 0).0, Status::Ok);
+        f
+    }
+
+    /// The Stanford bunny (fTetWild, 397 nodes, 1 027 tetrahedra, metres)
+    /// with a detailed skin, its vertices 0.5 mm outside or inside its
+    /// boundary, bound with a reach of 2 mm, then moved by an affine map
+    /// set through `corofem_set_positions`: every vertex lands on `A v + t`
+    /// within f32 round-off, the positions and normals are the Rust API's
+    /// bit for bit, and the normals have unit length.
+    #[test]
+    fn a_skin_follows_an_affine_motion_of_the_bunny() {
+        let Some(path) = shared_mesh("bunny_ftw_1k.tetmesh") else {
+            return;
+        };
+        let mesh = corofem_io::read_mesh(&path).unwrap();
+        let (nodes, tets) = corofem_io::to_core(&mesh, 1.0);
+        let (verts, tris) = skin_of(&nodes, &tets, 0.5e-3);
+        let reach = 2.0e-3;
+        let n = verts.len();
+        let f = scene_of(&nodes, &tets);
+        let mut skin = Skin::new(n, tris.len());
+        let bound = skin.bind(&f, &verts, &tris, reach);
+        assert_eq!(bound.status, Status::Ok);
+        let st = bound.stats;
+        println!(
+            "bunny skin: {n} vertices, {} triangles, {} B + {} B of scratch; {st:?}",
+            tris.len(),
+            skin.bytes,
+            4 * skin.scratch.len()
+        );
+        assert_eq!((st.inside + st.outside) as usize, n);
+        assert!(st.inside > 0 && st.outside > 0);
+        assert!(st.max_distance > 0.0 && st.max_distance <= reach);
+
+        // The Rust API on the same mesh: the reference, and the weights.
+        let mut rust = corofem_core::VecScene::with_capacity(nodes.len(), tets.len());
+        let material = corofem_core::Material {
+            young: MAT.young,
+            poisson: MAT.poisson,
+            density: MAT.density,
+        };
+        rust.build(
+            &nodes,
+            &tets,
+            &material,
+            corofem_core::BuildOptions::default(),
+        )
+        .unwrap();
+        let mut bindings = vec![corofem_core::SurfaceBinding::EMPTY; n];
+        let mut scratch = vec![0u32; corofem_core::surface_scratch_len(n)];
+        let rust_stats = rust
+            .bind_surface(&verts, &tris, reach, &mut scratch, &mut bindings)
+            .unwrap();
+        assert_eq!(
+            (
+                rust_stats.inside,
+                rust_stats.outside,
+                rust_stats.max_distance
+            ),
+            (st.inside, st.outside, st.max_distance)
+        );
+
+        // At rest every vertex is where it was given, bit for bit.
+        let (p, normals) = update(&f, skin.h, n).unwrap();
+        assert_eq!(p, verts);
+        for m in &normals {
+            assert!((norm(wide(*m)) - 1.0).abs() < 1e-6, "{m:?}");
+        }
+
+        // An affine map: a rotation of 40° about (1, 2, 2)/3, a stretch and
+        // a shear, and a translation larger than the bunny.
+        let (c, s) = (40f64.to_radians().cos(), 40f64.to_radians().sin());
+        let k = [1.0 / 3.0, 2.0 / 3.0, 2.0 / 3.0];
+        let rot: [V3; 3] = std::array::from_fn(|i| {
+            std::array::from_fn(|j| {
+                let cross_term = match (i, j) {
+                    (0, 1) => -k[2],
+                    (0, 2) => k[1],
+                    (1, 0) => k[2],
+                    (1, 2) => -k[0],
+                    (2, 0) => -k[1],
+                    (2, 1) => k[0],
+                    _ => 0.0,
+                };
+                let id = if i == j { c } else { 0.0 };
+                id + s * cross_term + (1.0 - c) * k[i] * k[j]
+            })
+        });
+        let stretch = [[1.2, 0.1, 0.0], [0.0, 0.8, -0.05], [0.0, 0.0, 1.1]];
+        let a: [V3; 3] = std::array::from_fn(|i| {
+            std::array::from_fn(|j| (0..3).map(|l| rot[i][l] * stretch[l][j]).sum())
+        });
+        let t = [0.3, -0.1, 0.25];
+        let map = |x: V3| -> V3 { std::array::from_fn(|i| dot(a[i], x) + t[i]) };
+        let moved: Vec<[f32; 3]> = nodes
+            .iter()
+            .map(|x| map(wide(*x)).map(|c| c as f32))
+            .collect();
+        let before = f.hash();
+        // SAFETY: a live handle and an array of the scene's node count.
+        let st = unsafe { corofem_set_positions(f.h, moved.as_ptr().cast(), moved.len()) };
+        assert_eq!(st, Status::Ok);
+        assert_ne!(f.hash(), before);
+        let (p, normals) = update(&f, skin.h, n).unwrap();
+
+        // Bound on |p − (A v + t)| per coordinate. With exact weights the
+        // update `v + Σ wᵢ uᵢ`, uᵢ = A xᵢ + t − xᵢ, is exactly A v + t
+        // (Σ wᵢ = 1, Σ wᵢ xᵢ = v). In f32 (ε = 2⁻²³, each rounding ≤ ε/2 of
+        // its result): the node positions set, ε/2 |xᵢ'|; the displacements
+        // the scene keeps, ε/2 |uᵢ|; the weights stored as f32, ε/2 |wᵢ|;
+        // the four multiply-adds, ε/2 each of |wᵢ uᵢ| and of the partial sum
+        // ≤ |v| + Σ |wᵢ| |uᵢ|. With W = Σ |wᵢ| (1 inside, a little more for
+        // the vertices extrapolated outside), X = max |xᵢ'|, U = max |uᵢ|:
+        // error ≤ ε (W X / 2 + 3.5 W U + 2 |v|), so 8 ε W (X + U + |v|) has
+        // a margin of more than 2 (and the weights' own f64 error, ~1e-16 ×
+        // the element's aspect, is far below).
+        let eps = f64::from(f32::EPSILON);
+        let mut worst = 0.0f64;
+        for (i, b) in bindings.iter().enumerate() {
+            let w_sum: f64 = b.weights().iter().map(|w| f64::from(w.abs())).sum();
+            let x_max = b
+                .nodes()
+                .iter()
+                .map(|&j| norm(wide(moved[j as usize])))
+                .fold(0.0, f64::max);
+            let u_max = b
+                .nodes()
+                .iter()
+                .map(|&j| norm(sub(wide(moved[j as usize]), wide(nodes[j as usize]))))
+                .fold(0.0, f64::max);
+            let v = wide(verts[i]);
+            let tol = 8.0 * eps * w_sum * (x_max + u_max + norm(v));
+            let want = map(v);
+            let err = (0..3)
+                .map(|k| (f64::from(p[i][k]) - want[k]).abs())
+                .fold(0.0, f64::max);
+            assert!(err <= tol, "vertex {i}: error {err:e} m > {tol:e} m");
+            worst = worst.max(err / tol);
+        }
+        println!("affine motion: worst error {worst:.3} of the bound");
+
+        // The Rust API gives the same bits, positions and normals.
+        rust.set_positions(&moved).unwrap();
+        let mut rp = vec![[0.0f32; 3]; n];
+        rust.update_surface(&bindings, &mut rp).unwrap();
+        let mut rn = vec![[0.0f32; 3]; n];
+        corofem_core::vertex_normals(&rp, &tris, &mut rn).unwrap();
+        assert_eq!(p, rp);
+        assert_eq!(normals, rn);
+        for m in &normals {
+            assert!((norm(wide(*m)) - 1.0).abs() < 1e-6, "{m:?}");
+        }
+
+        // The surface belongs to the mesh: a second scene of the same mesh
+        // moves it, and so does this one rebuilt; another mesh refuses it.
+        let g = scene_of(&nodes, &tets);
+        // SAFETY: a live handle and an array of the scene's node count.
+        let st = unsafe { corofem_set_positions(g.h, moved.as_ptr().cast(), moved.len()) };
+        assert_eq!(st, Status::Ok);
+        assert_eq!(update(&g, skin.h, n).unwrap().0, p);
+        let scaled: Vec<[f32; 3]> = nodes.iter().map(|x| x.map(|c| 1.5 * c)).collect();
+        assert_eq!(g.build(&scaled, &tets, 0).0, Status::Ok);
+        assert_eq!(update(&g, skin.h, n), Err(Status::InvalidHandle));
+        assert_eq!(g.build(&nodes, &tets, 0).0, Status::Ok);
+        assert_eq!(update(&g, skin.h, n).unwrap().0, verts, "rebuilt: at rest");
+    }
+
+    /// A skin on the liver as the C example scales it, bound at every
+    /// buffer offset: the same bindings wherever the buffer starts.
+    #[test]
+    fn a_skin_of_the_liver_binds_at_any_address() {
+        let Some(path) = shared_mesh("sofa_liver.tetmesh") else {
+            return;
+        };
+        let mesh = corofem_io::read_mesh(&path).unwrap();
+        let (nodes, tets) = corofem_io::to_core(&mesh, 0.03);
+        let (verts, tris) = skin_of(&nodes, &tets, 0.0);
+        let f = scene_of(&nodes, &tets);
+        let mut skin = Skin::new(verts.len(), tris.len());
+        let mut first = None;
+        for off in 0..8 {
+            let bound = skin.bind_at(&f, &verts, &tris, 1.0e-3, off);
+            assert_eq!(bound.status, Status::Ok, "offset {off}");
+            let out = update(&f, skin.h, verts.len()).unwrap();
+            assert_eq!(out.0, verts);
+            assert_eq!(*first.get_or_insert(out.clone()), out);
+        }
+    }
+
+    #[test]
+    fn bad_binds_change_nothing() {
+        let f = Fixture::built();
+        let mut good = Skin::new(4, 4);
+        assert_eq!(good.bind(&f, &SKIN, &SKIN_TRIS, 0.0).status, Status::Ok);
+        let (rest, _) = update(&f, good.h, 4).unwrap();
+        assert_eq!(rest, SKIN);
+        // SAFETY: a live handle; locals.
+        unsafe {
+            assert_eq!(corofem_fix_nodes(f.h, [0u32, 1, 2].as_ptr(), 3), Status::Ok);
+            assert_eq!(corofem_step(f.h, null_mut()), Status::Ok);
+        }
+        let moved = update(&f, good.h, 4).unwrap();
+        let before = f.hash();
+
+        // Errors in the arguments: nothing changes, the buffer included.
+        let mut skin = Skin::new(4, 4);
+        let mut h = null_mut();
+        let ok = BindArgs {
+            scene: f.h,
+            vertices: SKIN.as_ptr().cast(),
+            triangles: SKIN_TRIS.as_ptr().cast(),
+            reach: 0.0,
+            buffer: skin.buf.as_mut_ptr().cast(),
+            bytes: skin.bytes,
+            scratch: skin.scratch.as_mut_ptr(),
+            scratch_len: skin.scratch.len(),
+            out: &mut h,
+        };
+        let unbuilt = Fixture::new(8, 4);
+        let mut zeros = vec![0u64; 512];
+        let in_scene = f.h.cast::<u8>().wrapping_add(64);
+        let in_buf = ok.buffer.wrapping_add(64);
+        let pristine = skin.buf.clone();
+        let check = |what: &str, want: Status, args: BindArgs| {
+            assert_eq!(args.call(), want, "{what}");
+            assert!(h.is_null(), "{what}: no handle out");
+            assert_eq!(skin.buf, pristine, "{what}: the buffer is untouched");
+            assert_eq!(f.hash(), before, "{what}: the scene is unchanged");
+        };
+        // `ok` with some arguments replaced.
+        macro_rules! bind {
+            ($what:expr, $want:ident, $($field:ident: $value:expr),+) => {
+                check($what, Status::$want, BindArgs { $($field: $value),+, ..ok })
+            };
+        }
+        bind!("null scene", NullPointer, scene: null_mut());
+        bind!("garbage scene", InvalidHandle, scene: zeros.as_mut_ptr().cast());
+        bind!("unbuilt scene", NotBuilt, scene: unbuilt.h);
+        bind!("null vertices", NullPointer, vertices: null());
+        bind!("null triangles", NullPointer, triangles: null());
+        bind!("null buffer", NullPointer, buffer: null_mut());
+        bind!("null scratch", NullPointer, scratch: null_mut());
+        bind!("null handle out", NullPointer, out: null_mut());
+        bind!("misaligned vertices", Misaligned, vertices: odd(ok.vertices));
+        bind!("misaligned triangles", Misaligned, triangles: odd(ok.triangles));
+        // One value fewer, so that the misaligned array stays inside the scratch.
+        let short = ok.scratch_len - 1;
+        bind!("misaligned scratch", Misaligned, scratch: odd_mut(ok.scratch), scratch_len: short);
+        bind!("misaligned handle out", Misaligned, out: odd_mut(ok.out));
+        bind!("buffer one byte short", BufferTooSmall, bytes: ok.bytes - 1);
+        bind!("scratch one value short", BufferTooSmall, scratch_len: ok.scratch_len - 1);
+        bind!("buffer in the scene", Overlap, buffer: in_scene);
+        bind!("scratch in the scene", Overlap, scratch: in_scene.cast());
+        bind!("scratch in the buffer", Overlap, scratch: in_buf.cast());
+        bind!("vertices in the buffer", Overlap, vertices: in_buf.cast());
+        bind!("handle out in the buffer", Overlap, out: in_buf.cast());
+        bind!("negative reach", InvalidArgument, reach: -1.0);
+        bind!("NaN reach", InvalidArgument, reach: f32::NAN);
+        bind!("infinite reach", InvalidArgument, reach: f32::INFINITY);
+
+        // Errors in the surface: typed, the culprit named, the scene
+        // unchanged; the buffer then holds no surface.
+        let mut nan = SKIN;
+        nan[2][1] = f32::NAN;
+        let mut far = SKIN;
+        far[3] = [0.0, 0.0, 3.0];
+        let cases = [
+            (nan, SKIN_TRIS, 0.0, Status::NonFiniteCoordinate, 2),
+            (far, SKIN_TRIS, 1.0, Status::VertexTooFar, 3),
+            (
+                SKIN,
+                [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 4]],
+                0.0,
+                Status::IndexOutOfRange,
+                3,
+            ),
+            (
+                SKIN,
+                [[0, 2, 1], [0, 1, 1], [0, 3, 2], [1, 2, 3]],
+                0.0,
+                Status::DegenerateTriangle,
+                1,
+            ),
+        ];
+        for (verts, tris, reach, want, at) in cases {
+            assert_eq!(skin.bind(&f, &SKIN, &SKIN_TRIS, 0.0).status, Status::Ok);
+            let old = skin.h;
+            let got = skin.bind(&f, &verts, &tris, reach);
+            assert_eq!((got.status, got.at), (want, at), "{want:?}");
+            assert_eq!(f.hash(), before, "{want:?}: the scene is unchanged");
+            assert_eq!(update(&f, old, 4), Err(Status::InvalidHandle), "{want:?}");
+            assert_eq!(
+                update(&f, good.h, 4),
+                Ok(moved.clone()),
+                "{want:?}: other surfaces unchanged"
+            );
+        }
+        // Collinear corners, and a vertex 2 m out with the reach 1 m.
+        let mut flat = SKIN;
+        flat[3] = [0.3, 0.1, 0.1];
+        let got = skin.bind(&f, &flat, &[[0, 1, 3]], 0.0);
+        assert_eq!((got.status, got.at), (Status::DegenerateTriangle, 0));
+        let mut far = SKIN;
+        far[1] = [-2.0, 0.0, 0.0];
+        let got = skin.bind(&f, &far, &SKIN_TRIS, 1.0);
+        assert_eq!((got.status, got.at), (Status::VertexTooFar, 1));
+        // Within its reach the same vertex binds, 2 m out.
+        let got = skin.bind(&f, &far, &SKIN_TRIS, 2.5);
+        assert_eq!(got.status, Status::Ok);
+        assert_eq!(
+            (
+                got.stats.inside,
+                got.stats.outside,
+                got.stats.farthest_vertex
+            ),
+            (3, 1, 1)
+        );
+        assert!((got.stats.max_distance - 2.0).abs() < 1e-6);
+        assert_eq!(f.hash(), before);
+
+        let (mut bytes, mut scratch) = (0, 0);
+        // SAFETY: out-pointers to locals, or null.
+        unsafe {
+            assert_eq!(
+                corofem_surface_bytes(u32::MAX as usize + 1, 0, &mut bytes, &mut scratch),
+                Status::Capacity
+            );
+            assert_eq!(
+                corofem_surface_bytes(4, 4, null_mut(), &mut scratch),
+                Status::NullPointer
+            );
+            assert_eq!(
+                corofem_surface_bytes(4, 4, &mut bytes, null_mut()),
+                Status::NullPointer
+            );
+            let both: *mut usize = &mut bytes;
+            assert_eq!(corofem_surface_bytes(4, 4, both, both), Status::Overlap);
+            assert_eq!(
+                corofem_surface_bytes(0, 0, &mut bytes, &mut scratch),
+                Status::Ok
+            );
+            assert_eq!(scratch, 2);
+        }
+    }
+
+    #[test]
+    fn bad_updates_write_nothing() {
+        let f = Fixture::built();
+        let mut skin = Skin::new(4, 4);
+        assert_eq!(skin.bind(&f, &SKIN, &SKIN_TRIS, 0.0).status, Status::Ok);
+        let h = skin.h;
+        // SAFETY: a live handle; locals.
+        unsafe {
+            assert_eq!(corofem_fix_nodes(f.h, [0u32, 1, 2].as_ptr(), 3), Status::Ok);
+            assert_eq!(corofem_step(f.h, null_mut()), Status::Ok);
+        }
+        let before = f.hash();
+        let (p, n) = update(&f, h, 4).unwrap();
+        assert_ne!(p, SKIN, "the body moved");
+        let mut out = [[9.0f32; 3]; 8];
+        let mut nrm = [[9.0f32; 3]; 8];
+        let ok = UpdateArgs {
+            scene: f.h,
+            surface: h,
+            positions: out.as_mut_ptr().cast(),
+            positions_len: 12,
+            normals: nrm.as_mut_ptr().cast(),
+            normals_len: 12,
+        };
+        let unbuilt = Fixture::new(8, 4);
+        let other = Fixture::new(8, 4);
+        let mut shifted = NODES;
+        shifted[4][0] += 0.5;
+        assert_eq!(other.build(&shifted, &TETS, 0).0, Status::Ok);
+        let in_scene = f.h.cast::<u8>().wrapping_add(64).cast::<f32>();
+        let in_skin = h.cast::<u8>().wrapping_add(64).cast::<f32>();
+        let mut zeros = vec![0u64; 512];
+        let check = |what: &str, want: Status, args: UpdateArgs| {
+            assert_eq!(args.call(), want, "{what}");
+            assert_eq!(out, [[9.0; 3]; 8], "{what}: positions untouched");
+            assert_eq!(nrm, [[9.0; 3]; 8], "{what}: normals untouched");
+            assert_eq!(f.hash(), before, "{what}: the scene is unchanged");
+        };
+        macro_rules! update {
+            ($what:expr, $want:ident, $($field:ident: $value:expr),+) => {
+                check($what, Status::$want, UpdateArgs { $($field: $value),+, ..ok })
+            };
+        }
+        update!("null scene", NullPointer, scene: null_mut());
+        update!("unbuilt scene", NotBuilt, scene: unbuilt.h);
+        update!("another mesh's scene", InvalidHandle, scene: other.h);
+        update!("null surface", NullPointer, surface: null());
+        update!("garbage surface", InvalidHandle, surface: zeros.as_mut_ptr().cast());
+        update!("misaligned surface", InvalidHandle, surface: odd(ok.surface));
+        update!("a scene as the surface", InvalidHandle, surface: f.h.cast());
+        update!("null positions", NullPointer, positions: null_mut());
+        update!("misaligned positions", Misaligned, positions: odd_mut(ok.positions));
+        update!("misaligned normals", Misaligned, normals: odd_mut(ok.normals));
+        update!("positions short", BufferTooSmall, positions_len: 11);
+        update!("normals short", BufferTooSmall, normals_len: 11);
+        update!("positions in the scene", Overlap, positions: in_scene);
+        update!("positions in the surface", Overlap, positions: in_skin);
+        update!("normals in the surface", Overlap, normals: in_skin);
+        update!("normals over the positions", Overlap, normals: ok.positions.wrapping_add(9));
+        // Larger outputs are fine, and the normals optional.
+        let no_normals = UpdateArgs {
+            positions_len: 24,
+            normals: null_mut(),
+            normals_len: 0,
+            ..ok
+        };
+        assert_eq!(no_normals.call(), Status::Ok);
+        assert_eq!(out[..4], p[..]);
+        assert_eq!(out[4..], [[9.0; 3]; 4]);
+        assert_eq!(nrm, [[9.0; 3]; 8]);
+        assert_eq!(
+            UpdateArgs {
+                normals_len: 13,
+                ..ok
+            }
+            .call(),
+            Status::Ok
+        );
+        assert_eq!(nrm[..4], n[..]);
+        // A copy of the surface's bytes is not a surface; a dead scene
+        // moves nothing.
+        let mut copy = skin.buf.clone();
+        let offset = h as usize - skin.buf.as_ptr() as usize;
+        let moved = copy.as_mut_ptr().cast::<u8>().wrapping_add(offset);
+        let copied = UpdateArgs {
+            surface: moved.cast(),
+            ..ok
+        };
+        assert_eq!(copied.call(), Status::InvalidHandle);
+        // SAFETY: a live handle.
+        assert_eq!(unsafe { corofem_scene_deinit(f.h) }, Status::Ok);
+        assert_eq!(ok.call(), Status::InvalidHandle);
+    }
+}
