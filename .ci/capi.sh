@@ -89,6 +89,34 @@ if command -v arm-none-eabi-gcc >/dev/null && command -v qemu-system-arm >/dev/n
         exit 1
     fi
     pass "Cortex-M4F image has no panicking code; its $m4f equals the host's"
+
+    # The same with embedded surfaces: binding and moving them link no
+    # panicking code either, and give the host's surface (printed to 1 µm).
+    cargo rustc --release --manifest-path $MANIFEST --target thumbv7em-none-eabihf --lib \
+        --crate-type staticlib --no-default-features --features qr,fpu-sqrt,panic-handler,surface
+    arm-none-eabi-gcc -mcpu=cortex-m4 -mthumb -mfloat-abi=hard -mfpu=fpv4-sp-d16 -O2 -std=c11 \
+        -Wall -Wextra -Werror -ffp-contract=off -DCOROFEM_BARE_METAL -Icapi/include \
+        -nostartfiles -T capi/cortex-m4f/link.ld --specs=rdimon.specs \
+        capi/cortex-m4f/startup.c capi/examples/haptic_loop.c \
+        "$CARGO_TARGET_DIR/thumbv7em-none-eabihf/release/libcorofem_capi.a" -lm \
+        -Wl,--gc-sections -Wl,--no-warn-execstack -o "$OUT/haptic_loop_surface.elf"
+    arm-none-eabi-size "$OUT/haptic_loop_surface.elf"
+    if arm-none-eabi-nm -C "$OUT/haptic_loop_surface.elf" | grep -E 'core::panicking|rust_begin_unwind'; then
+        echo "the Cortex-M4F image with surfaces links panicking code (see the symbols above)"
+        exit 1
+    fi
+    timeout 600 qemu-system-arm -machine mps2-an386 -cpu cortex-m4 -nographic -monitor none \
+        -serial none -semihosting-config enable=on,target=native \
+        -kernel "$OUT/haptic_loop_surface.elf" | tee "$OUT/m4f_surface.txt"
+    for key in '^hash ' '^surface tip ring centre '; do
+        host=$(grep "$key" "$OUT/box.txt")
+        m4f=$(grep "$key" "$OUT/m4f_surface.txt")
+        if [ -z "$host" ] || [ "$host" != "$m4f" ]; then
+            echo "Cortex-M4F with surfaces: '$m4f' differs from host '$host'"
+            exit 1
+        fi
+    done
+    pass "Cortex-M4F image with surfaces has no panicking code; its surface (to 1 µm) and hash equal the host's"
 else
     # A check that cannot run is a failure, not a pass.
     echo "arm-none-eabi-gcc (with newlib) or qemu-system-arm could not be installed"
