@@ -2,9 +2,10 @@
 # The web demo (examples/web): native unit tests, the wasm build, the wasm
 # module's state hash in Node against the host's, and the page in headless
 # Chromium (Debian's package, driven by playwright-core from npm; no tool
-# downloads a browser). Writes the screenshot to $out/web-demo.png (set
-# COROFEM_WEB_SCREENSHOT=docs/web-demo.png to refresh the README's). Called by .ci/run; runs
-# alone too: `bash .ci/web.sh`. About a minute when everything is installed.
+# downloads a browser). Writes the screenshots to $out/web-demo.png and,
+# beside it, web-surface.png (set COROFEM_WEB_SCREENSHOT=docs/web-demo.png to
+# refresh docs/'s two). Called by .ci/run; runs alone too: `bash .ci/web.sh`.
+# About a minute when everything is installed.
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 web="$root/examples/web"
@@ -22,7 +23,7 @@ rustup target add wasm32-unknown-unknown >/dev/null 2>&1 \
 cd "$web"
 npm ci --no-audit --no-fund --loglevel=error
 
-echo "== web: native unit tests (the shared mesh readers as the page builds them, mesh preparation)"
+echo "== web: native unit tests (the shared mesh and surface readers as the page builds them, mesh preparation, surface files)"
 cargo test --quiet
 
 echo "== web: wasm build"
@@ -49,11 +50,14 @@ echo "== web: wasm module in Node (hash against the host's)"
 node --test test/hash.test.mjs
 
 echo "== web: the page in headless Chromium"
+# A relative COROFEM_WEB_SCREENSHOT is taken from the repository's root.
+shot="${COROFEM_WEB_SCREENSHOT:-$out/web-demo.png}"
+case "$shot" in /*) ;; *) shot="$root/$shot" ;; esac
 COROFEM_WEB_URL="http://127.0.0.1:$port/" \
-COROFEM_WEB_SCREENSHOT="${COROFEM_WEB_SCREENSHOT:-$out/web-demo.png}" \
+COROFEM_WEB_SCREENSHOT="$shot" \
 COROFEM_WEB_TIMING="$out/browser-timing.json" \
   node --test test/browser.test.mjs
 
-echo "== web: native time per step of the same scene"
+echo "== web: native time per step of the same scene, and of the blob's surface update"
 cargo run --quiet --release --example bench
 echo "wasm size: $(wc -c < www/corofem_web.wasm) bytes ($(gzip -9 < www/corofem_web.wasm | wc -c) gzipped)"

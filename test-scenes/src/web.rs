@@ -1,7 +1,8 @@
-//! The demo's simulation side: built-in bodies, placing and holding a body,
-//! its surface for drawing, picking and grabbing with the haptic tool, frames
-//! of several steps, and the scripted scene whose state hash the wasm module
-//! and the host must agree on ([`hash_script`]).
+//! The demo's simulation side: built-in bodies and their smooth surfaces,
+//! placing and holding a body, its surface for drawing, an embedded surface
+//! carried by the tetrahedra, picking and grabbing with the haptic tool,
+//! frames of several steps, and the scripted scene whose state hash the wasm
+//! module and the host must agree on ([`hash_script`]).
 //!
 //! Only `corofem` and `std` are used here. The web demo (`examples/web`)
 //! and the host test `host-tests/tests/web_hash.rs` both use this module:
@@ -11,7 +12,10 @@ use std::collections::HashMap;
 
 // The scene is a `VecScene`: in vectors sized at run time (the body can come
 // from a file), with a grab and a load slot for every node.
-use corofem::{BoxMesh, BuildOptions, Material, Method, Plane, Preconditioner, Settings, VecScene};
+use corofem::{
+    surface_scratch_len, vertex_normals, BindStats, BoxMesh, BuildOptions, Error, Material, Method,
+    Plane, Preconditioner, Settings, SurfaceBinding, VecScene,
+};
 
 /// A tetrahedral mesh in the core's input form.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -32,6 +36,16 @@ pub enum Body {
     /// A squashed ball of radius ~0.2 m: an 8×8×8 grid of 5-tet cells mapped
     /// onto a sphere (2560 tets, 729 nodes).
     Blob,
+}
+
+/// A triangle surface: vertices (m) and triangles indexing them, wound
+/// counter-clockwise seen from outside.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct TriangleSurface {
+    /// Vertex positions (m).
+    pub vertices: Vec<[f32; 3]>,
+    /// Triangles as indices into `vertices`.
+    pub triangles: Vec<[u32; 3]>,
 }
 
 impl Body {
@@ -58,20 +72,131 @@ impl Body {
             Body::Blob => {
                 let mut m = box_mesh([2.0; 3], [8, 8, 8], 5);
                 for p in &mut m.nodes {
-                    let [x, y, z] = [p[0] - 1.0, p[1] - 1.0, p[2] - 1.0];
-                    // The cube [-1, 1]³ onto the unit ball (a smooth bijection:
-                    // x' = x √(1 − y²/2 − z²/2 + y²z²/3) and cyclically),
-                    // then squashed a little to look less like a ball.
-                    let (x2, y2, z2) = (x * x, y * y, z * z);
-                    let sx = x * (1.0 - y2 / 2.0 - z2 / 2.0 + y2 * z2 / 3.0).max(0.0).sqrt();
-                    let sy = y * (1.0 - z2 / 2.0 - x2 / 2.0 + z2 * x2 / 3.0).max(0.0).sqrt();
-                    let sz = z * (1.0 - x2 / 2.0 - y2 / 2.0 + x2 * y2 / 3.0).max(0.0).sqrt();
-                    *p = [0.22 * sx, 0.19 * sy, 0.16 * sz];
+                    *p = blob_point([p[0] - 1.0, p[1] - 1.0, p[2] - 1.0]);
                 }
                 m
             }
         }
     }
+
+    /// The body's smooth surface, in the coordinates of [`Body::mesh`], finer
+    /// than the tetrahedra's boundary, to draw in its place
+    /// ([`App::embed`]):
+    /// - cube and beam: the box with its edges and corners rounded (radius
+    ///   5 cm and 4 cm), inside the tetrahedra; flat parts every 2.5 cm at
+    ///   most, about half a cell, so that the surface bends with the body;
+    ///   each rounded edge in 8 segments of 11.25°. Cube 1 538 vertices,
+    ///   3 072 triangles; beam 2 680, 5 356.
+    /// - blob: the ellipsoid its nodes are mapped onto, from a 24×24 grid on
+    ///   each face of the cube (three per cell), through the same map: every
+    ///   third vertex is a boundary node, those between lie on the ellipsoid,
+    ///   outside the flat boundary faces by at most their sagitta (1.8 mm).
+    ///   3 458 vertices, 6 912 triangles.
+    pub fn smooth_surface(self) -> TriangleSurface {
+        match self {
+            Body::Cube => rounded_box([0.3; 3], 0.05),
+            Body::Beam => rounded_box([1.0, 0.2, 0.2], 0.04),
+            Body::Blob => {
+                let t: Vec<f32> = (0..=24).map(|i| i as f32 / 12.0 - 1.0).collect();
+                box_surface([&t, &t, &t], blob_point)
+            }
+        }
+    }
+}
+
+/// The blob's map of the cube `[-1, 1]³` onto the unit ball (a smooth
+/// bijection: `x' = x √(1 − y²/2 − z²/2 + y²z²/3)` and cyclically), then
+/// squashed a little to look less like a ball.
+fn blob_point([x, y, z]: [f32; 3]) -> [f32; 3] {
+    let (x2, y2, z2) = (x * x, y * y, z * z);
+    let sx = x * (1.0 - y2 / 2.0 - z2 / 2.0 + y2 * z2 / 3.0).max(0.0).sqrt();
+    let sy = y * (1.0 - z2 / 2.0 - x2 / 2.0 + z2 * x2 / 3.0).max(0.0).sqrt();
+    let sz = z * (1.0 - x2 / 2.0 - y2 / 2.0 + x2 * y2 / 3.0).max(0.0).sqrt();
+    [0.22 * sx, 0.19 * sy, 0.16 * sz]
+}
+
+/// Most distance between neighbouring vertices on the flat parts of a
+/// rounded box (m).
+const ROUNDED_SPACING: f32 = 0.025;
+/// `tan(11.25° i)`, i = 1…4: where the grid lines of a rounded box's strip
+/// along an edge go (from its inner side, in units of the radius), so that
+/// its 45° of the rounded edge come in 4 equal segments. Constants, not
+/// `f32::tan`, which would bring 5 kB of argument reduction into the wasm
+/// module.
+const ROUNDED_TAN: [f32; 4] = [0.198_912_37, 0.414_213_57, 0.668_178_6, 1.0];
+
+/// The box `[0, size]` with its edges and corners rounded to `radius`.
+///
+/// The grid on the box's faces is mapped onto the rounded box by
+/// `p = c + radius · (q − c) / |q − c|`, `c` the point `q` clamped to the box
+/// shrunk by `radius`: the flat parts stay, the strip of width `radius`
+/// along each edge of a face turns into 45° of the rounded edge. The grid
+/// lines in that strip sit at `radius · tan(11.25° i)` from its inner side
+/// ([`ROUNDED_TAN`]), so that the segments on the rounded edge are equal.
+fn rounded_box(size: [f32; 3], radius: f32) -> TriangleSurface {
+    let half = size.map(|s| 0.5 * s);
+    let inner = half.map(|h| h - radius);
+    let ticks = |k: usize| -> Vec<f32> {
+        // Less a thousandth: 0.2 / 0.025 is 8.000001 in f32.
+        let flat = (2.0 * inner[k] / ROUNDED_SPACING - 1e-3).ceil().max(1.0) as u32;
+        let rim: Vec<f32> = ROUNDED_TAN.iter().map(|t| inner[k] + radius * t).collect();
+        let mut t: Vec<f32> = rim.iter().rev().map(|&r| -r).collect();
+        t.extend((0..=flat).map(|j| -inner[k] + 2.0 * inner[k] * j as f32 / flat as f32));
+        t.extend(&rim);
+        t
+    };
+    let (tx, ty, tz) = (ticks(0), ticks(1), ticks(2));
+    box_surface([&tx, &ty, &tz], |q| {
+        let c: [f32; 3] = core::array::from_fn(|k| q[k].clamp(-inner[k], inner[k]));
+        let d = sub(q, c);
+        let s = radius / dot(d, d).sqrt();
+        core::array::from_fn(|k| half[k] + c[k] + s * d[k])
+    })
+}
+
+/// The closed surface of the grid `ticks[0] × ticks[1] × ticks[2]` (each
+/// axis's grid lines, increasing): the grid points on the faces of its box,
+/// each once, placed by `map`, and each face's squares split into two
+/// triangles wound outward.
+fn box_surface(ticks: [&[f32]; 3], map: impl Fn([f32; 3]) -> [f32; 3]) -> TriangleSurface {
+    let n = ticks.map(|t| t.len().saturating_sub(1));
+    let lattice = |i: [usize; 3]| i[0] + (n[0] + 1) * (i[1] + (n[1] + 1) * i[2]);
+    let mut index = vec![u32::MAX; (n[0] + 1) * (n[1] + 1) * (n[2] + 1)];
+    let mut s = TriangleSurface::default();
+    let mut vertex = |i: [usize; 3], s: &mut TriangleSurface| -> u32 {
+        let slot = &mut index[lattice(i)];
+        if *slot == u32::MAX {
+            *slot = s.vertices.len() as u32;
+            s.vertices
+                .push(map(core::array::from_fn(|k| ticks[k][i[k]])));
+        }
+        *slot
+    };
+    for a in 0..3 {
+        // (a, b, c) right-handed: e_b × e_c = e_a.
+        let (b, c) = ((a + 1) % 3, (a + 2) % 3);
+        for side in [0, n[a]] {
+            for u in 0..n[b] {
+                for v in 0..n[c] {
+                    let mut corner = |du: usize, dv: usize| {
+                        let mut i = [0; 3];
+                        i[a] = side;
+                        i[b] = u + du;
+                        i[c] = v + dv;
+                        vertex(i, &mut s)
+                    };
+                    let q = [corner(0, 0), corner(1, 0), corner(1, 1), corner(0, 1)];
+                    let tris = if side == 0 {
+                        [[q[0], q[2], q[1]], [q[0], q[3], q[2]]]
+                    } else {
+                        [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]
+                    };
+                    s.triangles.extend(tris);
+                }
+            }
+        }
+    }
+    s
 }
 
 fn box_mesh(size: [f32; 3], cells: [u32; 3], tets_per_cell: u8) -> Mesh {
@@ -205,12 +330,67 @@ pub struct Hit {
     pub t: f32,
 }
 
+/// A triangle surface carried by the tetrahedra ([`App::embed`]): its
+/// bindings, and buffers for its current positions and normals, sized once.
+#[derive(Debug)]
+pub struct Embedded {
+    triangles: Vec<[u32; 3]>,
+    bindings: Vec<SurfaceBinding>,
+    positions: Vec<[f32; 3]>,
+    normals: Vec<[f32; 3]>,
+    /// Per vertex, 1 when every node it follows is fixed (drawn grey).
+    held: Vec<u8>,
+    stats: BindStats,
+    reach: f32,
+}
+
+impl Embedded {
+    /// The triangles, as given.
+    pub fn triangles(&self) -> &[[u32; 3]] {
+        &self.triangles
+    }
+
+    /// Current vertex positions (m), refreshed by [`App::update_embedded`].
+    pub fn positions(&self) -> &[[f32; 3]] {
+        &self.positions
+    }
+
+    /// Current unit vertex normals, refreshed with the positions.
+    pub fn normals(&self) -> &[[f32; 3]] {
+        &self.normals
+    }
+
+    /// Per vertex, 1 when every node it follows is fixed, else 0.
+    pub fn held(&self) -> &[u8] {
+        &self.held
+    }
+
+    /// The vertices' bindings to the tetrahedra.
+    pub fn bindings(&self) -> &[SurfaceBinding] {
+        &self.bindings
+    }
+
+    /// What binding found: vertices inside and outside the tetrahedra, the
+    /// farthest one's distance.
+    pub fn stats(&self) -> BindStats {
+        self.stats
+    }
+
+    /// How far outside the tetrahedra a vertex could lie (m).
+    pub fn reach(&self) -> f32 {
+        self.reach
+    }
+}
+
 /// One body on screen: the scene, its surface and the tool's state.
 #[derive(Debug)]
 pub struct App {
     scene: VecScene,
     /// Rest positions after placement (m).
     rest: Vec<[f32; 3]>,
+    /// What placement added to the mesh's coordinates (m).
+    shift: [f32; 3],
+    embedded: Option<Embedded>,
     surface: Vec<[u32; 3]>,
     fixed: Vec<u32>,
     support: Support,
@@ -286,6 +466,8 @@ impl App {
             positions: vec![0.0; 3 * rest.len()],
             scene,
             rest,
+            shift,
+            embedded: None,
             surface,
             fixed,
             support,
@@ -371,6 +553,90 @@ impl App {
             .zip(self.scene.positions())
         {
             out.copy_from_slice(&p);
+        }
+    }
+
+    /// How far outside the tetrahedra a vertex of an embedded surface may
+    /// lie: half the mean edge length (m). A surface modelled over the same
+    /// shape as the tetrahedra lies within a fraction of an element of their
+    /// boundary (a smooth surface outside flat faces by their sagitta); one
+    /// in other units or another place lies many elements away. Up to half
+    /// an element out, the nearest tetrahedron's affine map still describes
+    /// the body there.
+    pub fn embed_reach(&self) -> f32 {
+        0.5 * self.edge
+    }
+
+    /// Binds `surface` (in the coordinates of the mesh given to
+    /// [`App::new`]) to the tetrahedra and draws it in place of their
+    /// boundary from now on: it moves with the body ([`App::update_embedded`])
+    /// and never changes the simulation. Its buffers are sized here, once.
+    /// On error (a vertex farther than [`App::embed_reach`] from the
+    /// tetrahedra, a degenerate triangle, an index out of range, a
+    /// non-finite vertex) the surface embedded before stays.
+    pub fn embed(&mut self, surface: &TriangleSurface) -> Result<&Embedded, Error> {
+        let vertices: Vec<[f32; 3]> = surface
+            .vertices
+            .iter()
+            .map(|p| {
+                [
+                    p[0] + self.shift[0],
+                    p[1] + self.shift[1],
+                    p[2] + self.shift[2],
+                ]
+            })
+            .collect();
+        let n = vertices.len();
+        let mut scratch = vec![0u32; surface_scratch_len(n)];
+        let mut bindings = vec![SurfaceBinding::EMPTY; n];
+        let reach = self.embed_reach();
+        let stats = self.scene.bind_surface(
+            &vertices,
+            &surface.triangles,
+            reach,
+            &mut scratch,
+            &mut bindings,
+        )?;
+        let mut fixed = vec![false; self.rest.len()];
+        for &i in &self.fixed {
+            if let Some(f) = fixed.get_mut(i as usize) {
+                *f = true;
+            }
+        }
+        let held = bindings
+            .iter()
+            .map(|b| {
+                let all = b.nodes().iter().zip(b.weights()).all(|(&i, w)| {
+                    w.abs() < 1e-6 || fixed.get(i as usize).copied().unwrap_or(false)
+                });
+                u8::from(all)
+            })
+            .collect();
+        let mut e = Embedded {
+            triangles: surface.triangles.clone(),
+            bindings,
+            positions: vertices,
+            normals: vec![[0.0; 3]; n],
+            held,
+            stats,
+            reach,
+        };
+        update(&self.scene, &mut e)?;
+        Ok(self.embedded.insert(e))
+    }
+
+    /// The embedded surface, if any.
+    pub fn embedded(&self) -> Option<&Embedded> {
+        self.embedded.as_ref()
+    }
+
+    /// Moves the embedded surface to the body's current shape: positions,
+    /// then area-weighted vertex normals. No allocation. Returns `false`
+    /// when there is no embedded surface.
+    pub fn update_embedded(&mut self) -> Result<bool, Error> {
+        match self.embedded.as_mut() {
+            Some(e) => update(&self.scene, e).map(|()| true),
+            None => Ok(false),
         }
     }
 
@@ -540,6 +806,11 @@ impl App {
         self.stats = FrameStats::default();
         self.update_positions();
     }
+}
+
+fn update(scene: &VecScene, e: &mut Embedded) -> Result<(), Error> {
+    scene.update_surface(&e.bindings, &mut e.positions)?;
+    vertex_normals(&e.positions, &e.triangles, &mut e.normals)
 }
 
 /// Bounding box of `points` (zeros when empty).
@@ -777,6 +1048,152 @@ mod tests {
             })
             .sum();
         assert!((vol - tet_vol).abs() < 1e-6 * tet_vol, "{vol} vs {tet_vol}");
+    }
+
+    /// Volume enclosed by a closed triangle surface (divergence theorem);
+    /// checks too that every edge is shared by exactly two triangles, in
+    /// opposite directions (closed, consistently wound).
+    fn closed_volume(s: &TriangleSurface) -> f64 {
+        let mut edges: HashMap<(u32, u32), i32> = HashMap::new();
+        for t in &s.triangles {
+            for k in 0..3 {
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                *edges.entry((a.min(b), a.max(b))).or_insert(0) += if a < b { 1 } else { -1 };
+            }
+        }
+        assert!(
+            edges.values().all(|&c| c == 0),
+            "open or inconsistently wound"
+        );
+        assert_eq!(
+            s.vertices.len() + s.triangles.len() - edges.len(),
+            2,
+            "Euler characteristic of a sphere"
+        );
+        let p = |i: u32| s.vertices[i as usize];
+        s.triangles
+            .iter()
+            .map(|f| {
+                let (a, b, c) = (p(f[0]), p(f[1]), p(f[2]));
+                f64::from(dot(a, cross(sub(b, a), sub(c, a)))) / 6.0
+            })
+            .sum()
+    }
+
+    #[test]
+    fn smooth_surfaces_are_closed_outward_and_bind_within_reach() {
+        use std::f64::consts::PI;
+        for (body, vertices, triangles, volume) in [
+            // A rounded box: the box less 12 edges' ((1 − π/4) r² each per
+            // unit length) and 8 corners' ((1 − π/6) r³ each) worth.
+            (Body::Cube, 1538, 3072, {
+                let (s, r) = (0.3f64, 0.05f64);
+                s.powi(3)
+                    - (4.0 - PI) * r * r * 3.0 * (s - 2.0 * r)
+                    - (8.0 - 4.0 / 3.0 * PI) * r.powi(3)
+            }),
+            (Body::Beam, 2680, 5356, {
+                let (l, w, r) = (1.0f64, 0.2f64, 0.04f64);
+                let edges = (4.0 - PI) * r * r * ((l - 2.0 * r) + 2.0 * (w - 2.0 * r));
+                l * w * w - edges - (8.0 - 4.0 / 3.0 * PI) * r.powi(3)
+            }),
+            (Body::Blob, 3458, 6912, 4.0 / 3.0 * PI * 0.22 * 0.19 * 0.16),
+        ] {
+            let s = body.smooth_surface();
+            assert_eq!(s.vertices.len(), vertices, "{body:?}");
+            assert_eq!(s.triangles.len(), triangles, "{body:?}");
+            let v = closed_volume(&s);
+            // Flat triangles cut the rounded parts: a little less volume.
+            assert!(v < volume && v > 0.99 * volume, "{body:?}: {v} vs {volume}");
+
+            let mut app = App::body(body, Params::DEFAULT).unwrap();
+            let reach = app.embed_reach();
+            let e = app.embed(&s).unwrap();
+            let st = e.stats();
+            assert_eq!((st.inside + st.outside) as usize, vertices);
+            assert!(st.max_distance <= reach, "{body:?}: {st:?}");
+            // At rest every vertex is where it was given, shifted as the mesh.
+            let (lo, _) = app.rest_bounds();
+            let (mlo, _) = bounds(&body.mesh().nodes);
+            let e = app.embedded().unwrap();
+            for (p, q) in e.positions().iter().zip(&s.vertices) {
+                for k in 0..3 {
+                    assert!((p[k] - (q[k] + lo[k] - mlo[k])).abs() < 1e-6);
+                }
+            }
+            assert!(e.normals().iter().all(|n| (dot(*n, *n) - 1.0).abs() < 1e-5));
+            match body {
+                // The rounded boxes lie inside their boxes (their flat parts
+                // on the faces, to f32 round-off).
+                Body::Cube | Body::Beam => assert!(st.max_distance < 1e-6, "{body:?}: {st:?}"),
+                // The ellipsoid lies outside the flat boundary faces by
+                // their sagitta, a few millimetres.
+                Body::Blob => {
+                    assert!(st.outside > 0);
+                    assert!(st.max_distance < 0.002, "{st:?}");
+                    eprintln!("blob: {st:?}, reach {reach}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn the_embedded_surface_follows_the_body_and_leaves_the_simulation_alone() {
+        let mut plain = App::body(Body::Beam, Params::DEFAULT).unwrap();
+        let mut app = App::body(Body::Beam, Params::DEFAULT).unwrap();
+        app.embed(&Body::Beam.smooth_surface()).unwrap();
+        let held = app
+            .embedded()
+            .unwrap()
+            .held()
+            .iter()
+            .filter(|&&h| h == 1)
+            .count();
+        assert!(held > 0, "the clamped end face is held");
+        let rest: Vec<[f32; 3]> = app.embedded().unwrap().positions().to_vec();
+        plain.step_frame(100);
+        app.step_frame(100);
+        assert_eq!(plain.scene().state_hash(), app.scene().state_hash());
+        assert!(app.update_embedded().unwrap());
+        let e = app.embedded().unwrap();
+        // The free end's vertices sag with the nodes.
+        let tip = (0..rest.len())
+            .max_by(|&a, &b| rest[a][0].total_cmp(&rest[b][0]))
+            .unwrap();
+        assert!(e.positions()[tip][2] < rest[tip][2] - 0.01);
+        // A vertex is its tetrahedron's weighted nodes.
+        let b = e.bindings()[tip];
+        let mut p = [0.0f32; 3];
+        for (&i, w) in b.nodes().iter().zip(b.weights()) {
+            let x = app.scene().position(i).unwrap();
+            p = [p[0] + w * x[0], p[1] + w * x[1], p[2] + w * x[2]];
+        }
+        let q = e.positions()[tip];
+        assert!((0..3).all(|k| (p[k] - q[k]).abs() < 1e-5), "{p:?} vs {q:?}");
+        assert!(!plain.update_embedded().unwrap(), "nothing embedded");
+    }
+
+    #[test]
+    fn a_bad_surface_is_refused_and_the_old_one_stays() {
+        let mut app = App::body(Body::Blob, Params::DEFAULT).unwrap();
+        app.embed(&Body::Blob.smooth_surface()).unwrap();
+        let far = TriangleSurface {
+            vertices: vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+            triangles: vec![[0, 1, 2]],
+        };
+        assert!(matches!(
+            app.embed(&far),
+            Err(Error::VertexTooFar { vertex: 1 })
+        ));
+        let flat = TriangleSurface {
+            vertices: vec![[0.0, 0.0, 0.0], [0.01, 0.0, 0.0], [0.02, 0.0, 0.0]],
+            triangles: vec![[0, 1, 2]],
+        };
+        assert!(matches!(
+            app.embed(&flat),
+            Err(Error::DegenerateTriangle { triangle: 0 })
+        ));
+        assert_eq!(app.embedded().unwrap().positions().len(), 3458);
     }
 
     #[test]

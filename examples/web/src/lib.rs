@@ -9,7 +9,13 @@
 //!
 //! Strings (errors, notes) come back as UTF-8 bytes at `cf_message_ptr`, of
 //! length `cf_message_len`. Files go the other way: `cf_input(len)` returns
-//! a buffer the page fills before calling `cf_load_input`.
+//! a buffer the page fills before calling `cf_load_input` (a mesh) or
+//! `cf_load_surface_input` (a surface to embed).
+//!
+//! An embedded surface (`cf_embedded_*`) is drawn in place of the
+//! tetrahedra's boundary: the built-in bodies come with one, a file may
+//! replace it. It never changes the simulation; `cf_embedded_update` moves
+//! it to the body's current shape, without allocating.
 //!
 //! All exports are safe functions; `#[no_mangle]` is the only attribute the
 //! `unsafe_code` lint would name, so it is allowed here for that reason.
@@ -17,6 +23,7 @@
 #![deny(unsafe_code)]
 
 pub mod mesh_file;
+pub mod surface_file;
 
 pub use corofem_test_scenes::web as demo;
 
@@ -24,10 +31,13 @@ use std::cell::RefCell;
 
 use corofem::Method;
 use demo::{App, Body, Params, Support};
+use mesh_file::Placement;
 
 /// Everything the page talks to.
 struct State {
     app: Option<App>,
+    /// How the body's mesh was placed: a surface file goes the same way.
+    placement: Placement,
     params: Params,
     /// The last error, or a note about the last load.
     message: String,
@@ -43,6 +53,7 @@ thread_local! {
     static STATE: RefCell<State> = const {
         RefCell::new(State {
             app: None,
+            placement: Placement::IDENTITY,
             params: Params::DEFAULT,
             message: String::new(),
             input: Vec::new(),
@@ -78,10 +89,11 @@ fn method(i: u32) -> Option<Method> {
     .copied()
 }
 
-fn install(s: &mut State, result: Result<App, String>, note: String) -> i32 {
+fn install(s: &mut State, result: Result<(App, Placement), String>, note: String) -> i32 {
     match result {
-        Ok(app) => {
+        Ok((app, placement)) => {
             s.app = Some(app);
+            s.placement = placement;
             s.stats = [0.0; 12];
             s.message = note;
             0
@@ -94,8 +106,9 @@ fn install(s: &mut State, result: Result<App, String>, note: String) -> i32 {
 }
 
 /// Loads built-in body `body` (0 cube, 1 beam, 2 blob) held by `support`
-/// (0 ground, 1 clamp, 2 free, anything else: the body's default). Returns
-/// 0, or 1 with the error at `cf_message_ptr` (the previous body stays).
+/// (0 ground, 1 clamp, 2 free, anything else: the body's default), with its
+/// smooth surface embedded. Returns 0, or 1 with the error at
+/// `cf_message_ptr` (the previous body stays).
 #[allow(unsafe_code)]
 #[no_mangle]
 pub extern "C" fn cf_load_body(body: u32, support: u32) -> i32 {
@@ -105,7 +118,11 @@ pub extern "C" fn cf_load_body(body: u32, support: u32) -> i32 {
             return 1;
         };
         let support = Support::from_index(support).unwrap_or(body.default_support());
-        let r = App::new(&body.mesh(), support, s.params, false);
+        let r = App::new(&body.mesh(), support, s.params, false).and_then(|mut app| {
+            app.embed(&body.smooth_surface())
+                .map_err(|e| e.to_string())?;
+            Ok((app, Placement::IDENTITY))
+        });
         install(s, r, String::new())
     })
 }
@@ -122,9 +139,10 @@ pub extern "C" fn cf_input(len: u32) -> u32 {
 }
 
 /// Reads the `tetmesh 1` or Gmsh `.msh` file in the input buffer and loads
-/// it held by `support` (as `cf_load_body`; default ground). Negatively
-/// oriented tetrahedra are re-oriented. Returns 0 (a note, if any, at
-/// `cf_message_ptr`) or 1 with the error there (the previous body stays).
+/// it held by `support` (as `cf_load_body`; default ground), with no
+/// embedded surface. Negatively oriented tetrahedra are re-oriented.
+/// Returns 0 (a note, if any, at `cf_message_ptr`) or 1 with the error
+/// there (the previous body stays).
 #[allow(unsafe_code)]
 #[no_mangle]
 pub extern "C" fn cf_load_input(support: u32) -> i32 {
@@ -133,8 +151,8 @@ pub extern "C" fn cf_load_input(support: u32) -> i32 {
         let input = std::mem::take(&mut s.input);
         let r = mesh_file::parse(&input).and_then(|m| mesh_file::prepare(&m));
         match r {
-            Ok((mesh, note)) => {
-                let r = App::new(&mesh, support, s.params, true);
+            Ok((mesh, placement, note)) => {
+                let r = App::new(&mesh, support, s.params, true).map(|app| (app, placement));
                 install(s, r, note)
             }
             Err(e) => {
@@ -143,6 +161,123 @@ pub extern "C" fn cf_load_input(support: u32) -> i32 {
             }
         }
     })
+}
+
+/// Reads the OBJ or STL file in the input buffer, laid out as its name
+/// (`name_len` bytes of UTF-8; the extension tells the format) followed by
+/// its bytes, and embeds it in the body, placed as the body's mesh was (a
+/// file's mesh may have been scaled), in place of the surface embedded
+/// before. Returns 0 with a note at `cf_message_ptr` (its counts, and how
+/// far outside the tetrahedra its vertices reach), or 1 with the error
+/// there (the body and its surface stay).
+#[allow(unsafe_code)]
+#[no_mangle]
+pub extern "C" fn cf_load_surface_input(name_len: u32) -> i32 {
+    with(|s| {
+        let input = std::mem::take(&mut s.input);
+        let (name, bytes) = input.split_at(input.len().min(name_len as usize));
+        let name = String::from_utf8_lossy(name);
+        let placement = s.placement;
+        let Some(app) = s.app.as_mut() else {
+            s.message = "no body to embed the surface in".to_owned();
+            return 1;
+        };
+        let surface = match surface_file::parse(bytes, &name, &placement) {
+            Ok(surface) => surface,
+            Err(e) => {
+                s.message = e;
+                return 1;
+            }
+        };
+        let reach = app.embed_reach();
+        match app.embed(&surface) {
+            Ok(e) => {
+                let st = e.stats();
+                let mut note = format!(
+                    "{} vertices, {} triangles",
+                    surface.vertices.len(),
+                    surface.triangles.len()
+                );
+                if st.outside > 0 && st.max_distance > 0.0 {
+                    note.push_str(&format!(
+                        "; {} outside the tetrahedra, by at most {} mm",
+                        st.outside,
+                        mesh_file::sig3(1e3 * f64::from(st.max_distance))
+                    ));
+                }
+                s.message = note;
+                0
+            }
+            Err(e) => {
+                s.message = surface_file::bind_error(&e, reach, placement.scale());
+                1
+            }
+        }
+    })
+}
+
+/// Number of vertices of the embedded surface (0 when there is none).
+#[allow(unsafe_code)]
+#[no_mangle]
+pub extern "C" fn cf_embedded_vertex_count() -> u32 {
+    with_app(0, |a| {
+        a.embedded().map_or(0, |e| e.positions().len() as u32)
+    })
+}
+
+/// Number of triangles of the embedded surface.
+#[allow(unsafe_code)]
+#[no_mangle]
+pub extern "C" fn cf_embedded_triangle_count() -> u32 {
+    with_app(0, |a| {
+        a.embedded().map_or(0, |e| e.triangles().len() as u32)
+    })
+}
+
+/// Address of the embedded surface's triangles (3 × u32 each, wound
+/// counter-clockwise seen from outside).
+#[allow(unsafe_code)]
+#[no_mangle]
+pub extern "C" fn cf_embedded_triangles_ptr() -> u32 {
+    with_app(0, |a| {
+        a.embedded().map_or(0, |e| addr(e.triangles().as_ptr()))
+    })
+}
+
+/// Address of the embedded surface's current positions (3 × f32 per
+/// vertex, m), refreshed by `cf_embedded_update`.
+#[allow(unsafe_code)]
+#[no_mangle]
+pub extern "C" fn cf_embedded_positions_ptr() -> u32 {
+    with_app(0, |a| {
+        a.embedded().map_or(0, |e| addr(e.positions().as_ptr()))
+    })
+}
+
+/// Address of the embedded surface's unit vertex normals (3 × f32 per
+/// vertex), refreshed with the positions.
+#[allow(unsafe_code)]
+#[no_mangle]
+pub extern "C" fn cf_embedded_normals_ptr() -> u32 {
+    with_app(0, |a| {
+        a.embedded().map_or(0, |e| addr(e.normals().as_ptr()))
+    })
+}
+
+/// Address of one byte per vertex of the embedded surface: 1 when every
+/// node it follows is fixed (drawn like the clamped nodes), else 0.
+#[allow(unsafe_code)]
+#[no_mangle]
+pub extern "C" fn cf_embedded_held_ptr() -> u32 {
+    with_app(0, |a| a.embedded().map_or(0, |e| addr(e.held().as_ptr())))
+}
+
+/// Moves the embedded surface to the body's current shape (positions, then
+/// vertex normals), allocating nothing. Returns 1, or 0 when there is none.
+#[allow(unsafe_code)]
+#[no_mangle]
+pub extern "C" fn cf_embedded_update() -> u32 {
+    with_app(0, |a| u32::from(a.update_embedded().unwrap_or(false)))
 }
 
 /// Address of the last message (UTF-8).

@@ -3,7 +3,8 @@
 //! with nothing but `std`), the format told by the content. Errors say the
 //! line; the page puts the file name in front. Then [`prepare`] makes the
 //! mesh ready for the page: unused nodes dropped, sizes checked, scaled when
-//! it is far from the page's scale.
+//! it is far from the page's scale; its [`Placement`] places a surface file
+//! given for the same body (`surface_file`) the same way.
 
 use corofem_io::{Mesh as FileMesh, MeshError};
 
@@ -19,18 +20,49 @@ pub fn parse(bytes: &[u8]) -> Result<FileMesh, String> {
 }
 
 /// The reader's message without the file name, which the page shows itself.
-fn message(e: &MeshError) -> String {
+pub(crate) fn message(e: &MeshError) -> String {
     match e.line() {
         Some(line) => format!("line {line}: {}", e.detail()),
         None => e.detail().to_string(),
     }
 }
 
+/// Where a file's coordinates go on the page: `(p − centre) · scale`, in
+/// f64, rounded to f32 once.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Placement {
+    centre: [f64; 3],
+    scale: f64,
+}
+
+impl Placement {
+    /// Coordinates as they are (the built-in bodies).
+    pub const IDENTITY: Placement = Placement {
+        centre: [0.0; 3],
+        scale: 1.0,
+    };
+
+    /// The factor the coordinates are multiplied by.
+    pub fn scale(&self) -> f64 {
+        self.scale
+    }
+
+    /// A point of the file, placed.
+    pub fn apply(&self, p: [f64; 3]) -> [f32; 3] {
+        [
+            ((p[0] - self.centre[0]) * self.scale) as f32,
+            ((p[1] - self.centre[1]) * self.scale) as f32,
+            ((p[2] - self.centre[2]) * self.scale) as f32,
+        ]
+    }
+}
+
 /// A read mesh made ready for the solver: unused nodes dropped (Gmsh files
 /// keep geometry points), counts checked, f32 coordinates. A body whose
 /// largest extent is not between 5 cm and 2 m (a file in millimetres, say)
-/// is scaled to 0.4 m; the returned note says so.
-pub fn prepare(m: &FileMesh) -> Result<(super::demo::Mesh, String), String> {
+/// is scaled to 0.4 m; the returned note says so. The placement is what
+/// was done to the coordinates, for a surface file of the same body.
+pub fn prepare(m: &FileMesh) -> Result<(super::demo::Mesh, Placement, String), String> {
     if m.tets.is_empty() {
         return Err("the mesh has no tetrahedron".to_owned());
     }
@@ -77,17 +109,11 @@ pub fn prepare(m: &FileMesh) -> Result<(super::demo::Mesh, String), String> {
     } else {
         0.4 / extent
     };
-    let centre = [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]), lo[2]];
-    let nodes = nodes64
-        .iter()
-        .map(|p| {
-            [
-                ((p[0] - centre[0]) * scale) as f32,
-                ((p[1] - centre[1]) * scale) as f32,
-                ((p[2] - centre[2]) * scale) as f32,
-            ]
-        })
-        .collect();
+    let placement = Placement {
+        centre: [0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]), lo[2]],
+        scale,
+    };
+    let nodes = nodes64.iter().map(|&p| placement.apply(p)).collect();
     let tets = m.tets.iter().map(|t| t.map(|i| new_index[i])).collect();
     let mut note = String::new();
     if scale != 1.0 {
@@ -98,13 +124,15 @@ pub fn prepare(m: &FileMesh) -> Result<(super::demo::Mesh, String), String> {
     }
     Ok((
         super::demo::Mesh { nodes, tets },
+        placement,
         note.trim_end().to_owned(),
     ))
 }
 
 /// Positive `x` to 3 significant digits in plain decimal ("0.004", "25.4",
-/// "1500"), without the float formatter (it would add 20 kB to the module).
-fn sig3(x: f64) -> String {
+/// "1500"), without the float formatter (20 kB, which only the STL reader
+/// brings into the module, for one of its errors).
+pub(crate) fn sig3(x: f64) -> String {
     if !(x > 0.0 && x.is_finite()) {
         return "?".to_owned();
     }
@@ -175,7 +203,7 @@ $Elements\n4\n1 1 2 0 1 10 20\n2 2 2 0 1 10 20 30\n3 4 2 1 1 10 20 30 40\n4 4 2 
         let m = parse(V2.as_bytes()).unwrap();
         assert_eq!(m.nodes.len(), 6);
         assert_eq!(m.tets, vec![[0, 1, 2, 3], [1, 2, 3, 4]]);
-        let (mesh, note) = prepare(&m).unwrap();
+        let (mesh, _, note) = prepare(&m).unwrap();
         assert_eq!(mesh.nodes.len(), 5);
         assert_eq!(note, "1 nodes in no tetrahedron dropped.");
         let bad = V2.replace("20 30 40 50", "20 30 40 77");
@@ -248,9 +276,11 @@ $Elements\n2 3 1 3\n2 1 2 1\n1 1 2 3\n3 1 4 2\n2 1 2 3 4\n3 2 3 4 5\n$EndElement
         for p in &mut m.nodes {
             *p = p.map(|c| 100.0 * c);
         }
-        let (mesh, note) = prepare(&m).unwrap();
+        let (mesh, placement, note) = prepare(&m).unwrap();
         assert!(note.starts_with("scaled ×0.004"), "{note}");
         assert!((mesh.nodes[1][0] - 0.2).abs() < 1e-6 && (mesh.nodes[1][1] + 0.2).abs() < 1e-6);
+        assert_eq!(placement.scale(), 0.004);
+        assert_eq!(placement.apply(m.nodes[1]), mesh.nodes[1]);
         for p in &mut m.nodes {
             *p = [1.0; 3];
         }

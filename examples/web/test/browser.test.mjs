@@ -3,7 +3,8 @@
 //
 //   COROFEM_WEB_URL         the served www/ folder (default http://127.0.0.1:8765/)
 //   CHROMIUM                the browser (default /usr/bin/chromium)
-//   COROFEM_WEB_SCREENSHOT  where the screenshot goes (default test-output/web-demo.png)
+//   COROFEM_WEB_SCREENSHOT  where the screenshot goes (default test-output/web-demo.png); the
+//                           one of the blob's embedded surface goes beside it, as web-surface.png
 //   COROFEM_WEB_TIMING      where the measured ms/step goes (default test-output/browser-timing.json)
 //
 // Run: node --test test/browser.test.mjs   (with the folder served; see .ci/web.sh)
@@ -14,23 +15,25 @@ import fs from 'node:fs';
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
 import { chromium } from 'playwright-core';
-import { boxMesh, toMsh2, toMsh41, toTetmesh } from './meshes.mjs';
+import { boxMesh, sphereObj, toMsh2, toMsh41, toTetmesh, toStl } from './meshes.mjs';
 
 const here = path.dirname(fileURLToPath(import.meta.url));
 const URL = process.env.COROFEM_WEB_URL ?? 'http://127.0.0.1:8765/';
 const SHOT = process.env.COROFEM_WEB_SCREENSHOT ?? path.join(here, '../test-output/web-demo.png');
+const SHOT_SURFACE = path.join(path.dirname(SHOT), 'web-surface.png');
 const TIMING = process.env.COROFEM_WEB_TIMING ?? path.join(here, '../test-output/browser-timing.json');
+const LAUNCH = {
+  executablePath: process.env.CHROMIUM ?? '/usr/bin/chromium',
+  headless: true,
+  args: ['--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run',
+    '--disable-background-networking', '--disable-component-update', '--disable-sync'],
+};
 
 let browser, page;
 const pageErrors = [];
 
 before(async () => {
-  browser = await chromium.launch({
-    executablePath: process.env.CHROMIUM ?? '/usr/bin/chromium',
-    headless: true,
-    args: ['--no-sandbox', '--disable-gpu', '--disable-quic', '--no-first-run',
-      '--disable-background-networking', '--disable-component-update', '--disable-sync'],
-  });
+  browser = await chromium.launch(LAUNCH);
   page = await browser.newPage({ viewport: { width: 1280, height: 760 } });
   page.on('pageerror', (e) => pageErrors.push(e.message));
   page.on('console', (m) => { if (m.type() === 'error') pageErrors.push(m.text()); });
@@ -62,10 +65,10 @@ function maxMove(a, b) {
   return m;
 }
 
-// Page coordinates of the centroid of the camera-facing surface triangle
+// Page coordinates of the centroid of the camera-facing boundary triangle
 // nearest `want` (m): a point the pick ray is sure to hit.
-async function surfacePoint(want) {
-  const pt = await page.evaluate((want) => {
+async function surfacePoint(want, pg = page) {
+  const pt = await pg.evaluate((want) => {
     const p = demo.positions(), tris = demo.surface(), eye = demo.eye();
     let best = null, bd = Infinity;
     for (let t = 0; t < tris.length; t += 3) {
@@ -80,8 +83,49 @@ async function surfacePoint(want) {
     }
     return demo.screenOf(best);
   }, want);
-  const box = await page.locator('#canvas').boundingBox();
+  const box = await pg.locator('#canvas').boundingBox();
   return [box.x + pt[0], box.y + pt[1]];
+}
+
+// Draws a frame now and reads the canvas: how many pixels show the body
+// (its blue: blue well above red, as the background and the ground never
+// are), how many are near white (edges), and how rough the shading is: of the
+// horizontally neighbouring body pixels, the share whose brightness jumps by
+// more than 3 levels (the edges of flat-shaded facets; a smooth surface
+// varies by a level or two from pixel to pixel). What was drawn, too.
+const look = (pg = page) => pg.evaluate(() => {
+  demo.draw();
+  const c = document.getElementById('canvas');
+  const { data, width, height } = c.getContext('2d').getImageData(0, 0, c.width, c.height);
+  const body = (i) => data[i + 2] - data[i] > 40 && data[i + 2] > 60;
+  let pixels = 0, bright = 0, pairs = 0, jumps = 0;
+  for (let y = 0; y < height; y++) {
+    for (let x = 0; x < width; x++) {
+      const i = 4 * (y * width + x);
+      if (data[i] > 170 && data[i + 1] > 170 && data[i + 2] > 170) bright++;
+      if (!body(i)) continue;
+      pixels++;
+      if (x + 1 < width && body(i + 4)) {
+        pairs++;
+        const l = (j) => data[j] + data[j + 1] + data[j + 2];
+        if (Math.abs(l(i) - l(i + 4)) > 9) jumps++;
+      }
+    }
+  }
+  return { pixels, bright, rough: jumps / Math.max(pairs, 1), drawn: demo.state.drawn };
+});
+const surfaceStatus = (pg = page) => pg.evaluate(() => ({
+  text: document.getElementById('surface-status').textContent,
+  error: document.getElementById('surface-status').className === 'error',
+}));
+const embedded = (pg = page) => pg.evaluate(() => ({
+  vertices: demo.exports.cf_embedded_vertex_count(),
+  triangles: demo.exports.cf_embedded_triangle_count(),
+}));
+async function loadSurface(name, text, pg = page) {
+  await pg.setInputFiles('#surface-file', { name, mimeType: 'text/plain', buffer: Buffer.from(text) });
+  await pg.waitForFunction((name) => document.getElementById('surface-status').textContent.startsWith(name), name);
+  return surfaceStatus(pg);
 }
 
 test('the page loads the module and frames advance at display rate', async () => {
@@ -131,8 +175,6 @@ test('dragging the beam pulls with a force and deforms it', async () => {
   const during = await page.evaluate(() => demo.positions());
   const moved = maxMove(before, during);
   assert.ok(moved > 0.1, `the body moved only ${moved} m`);
-  fs.mkdirSync(path.dirname(SHOT), { recursive: true });
-  await page.screenshot({ path: SHOT });
   await page.mouse.up();
   await page.waitForTimeout(200);
   assert.equal(Number(await page.textContent('#force')), 0, 'released: no force');
@@ -224,6 +266,150 @@ test('mesh files load: Gmsh 4.1, Gmsh 2.2, tetmesh; a broken one is reported', a
   assert.deepEqual(pageErrors, []);
 });
 
+test('the blob shows its smooth embedded surface; the toggle shows the tetrahedra', async () => {
+  await page.selectOption('#body', '2');
+  await simulate(0.2);
+  assert.deepEqual(await embedded(), { vertices: 3458, triangles: 6912 });
+  assert.equal(await page.isChecked('#show-surface'), true);
+  assert.match((await surfaceStatus()).text, /^built-in smooth surface \(3458 vertices\)/);
+  assert.match(await page.textContent('#counts'), /surface 3458 vertices · 6912 triangles/);
+  const smooth = await look();
+  assert.deepEqual(smooth.drawn, { surfaceTriangles: 6912, tetTriangles: 0, edges: 0 });
+  assert.ok(smooth.pixels > 20000, `the surface covers only ${smooth.pixels} pixels`);
+  await page.uncheck('#show-surface');
+  const tets = await look();
+  assert.deepEqual(tets.drawn, { surfaceTriangles: 0, tetTriangles: 768, edges: 0 });
+  // The same body, about as large on screen, but shaded in flat facets.
+  assert.ok(Math.abs(tets.pixels - smooth.pixels) < 0.05 * smooth.pixels, `${tets.pixels} vs ${smooth.pixels}`);
+  console.log('shading roughness, smooth surface vs tetrahedra:', smooth.rough.toFixed(4), tets.rough.toFixed(4));
+  assert.ok(smooth.rough < 0.01, `the embedded surface is not smooth: ${smooth.rough}`);
+  assert.ok(tets.rough > 3 * smooth.rough, `${tets.rough} vs ${smooth.rough}`);
+  // The boundary's edges over the surface: 1152 edges, drawn bright.
+  await page.check('#show-surface');
+  await page.check('#show-edges');
+  const wire = await look();
+  assert.deepEqual(wire.drawn, { surfaceTriangles: 6912, tetTriangles: 0, edges: 1152 });
+  console.log('near-white pixels without and with the edges:', smooth.bright, wire.bright);
+  assert.ok(wire.bright > smooth.bright + 2000, `edges: ${wire.bright} bright pixels against ${smooth.bright}`);
+  await page.uncheck('#show-edges');
+  // The surface moves with the body: pulled, its vertices follow.
+  const rest = await page.evaluate(() => Array.from(new Float32Array(demo.exports.memory.buffer,
+    demo.exports.cf_embedded_positions_ptr(), 3 * 3458)));
+  const [sx, sy] = await surfacePoint([0.1, -0.1, 0.3]);
+  await page.mouse.move(sx, sy);
+  await page.mouse.down();
+  await page.mouse.move(sx + 10, sy - 120, { steps: 20 });
+  await simulate(0.3);
+  const pulled = await page.evaluate(() => Array.from(new Float32Array(demo.exports.memory.buffer,
+    demo.exports.cf_embedded_positions_ptr(), 3 * 3458)));
+  await page.mouse.up();
+  assert.ok(maxMove(rest, pulled) > 0.05, `the surface moved only ${maxMove(rest, pulled)} m`);
+  assert.ok(pulled.every(Number.isFinite));
+  assert.deepEqual(pageErrors, []);
+});
+
+test('a surface file loads onto the blob; bad ones are reported and change nothing', async () => {
+  await page.selectOption('#body', '2');
+  const blob = await look();
+  // A sphere of radius 0.12 m inside the blob (radii 0.22, 0.19, 0.16 m),
+  // in the body's own coordinates (the blob is centred on the origin).
+  const sphere = sphereObj([0, 0, 0], 0.12, 3);
+  const st = await loadSurface('ball.obj', sphere.text);
+  assert.equal(st.error, false, st.text);
+  assert.equal(st.text, 'ball.obj: 258 vertices, 512 triangles');
+  assert.deepEqual(await embedded(), { vertices: sphere.vertices, triangles: sphere.triangles });
+  const ball = await look();
+  assert.deepEqual(ball.drawn, { surfaceTriangles: 512, tetTriangles: 0, edges: 0 });
+  // Smaller than the blob on screen: about (0.12² π) against the blob's outline.
+  const ratio = ball.pixels / blob.pixels;
+  assert.ok(ratio > 0.3 && ratio < 0.75, `sphere ${ball.pixels} px, blob ${blob.pixels} px`);
+  await simulate(0.1);
+
+  // Errors name the problem under the picker; the surface stays.
+  const far = sphereObj([5, 0, 0], 0.1, 1);
+  const flat = 'v 0 0 0\nv 0.05 0 0\nv 0.1 0 0\nv 0 0.05 0\nf 1 2 4\nf 1 2 3\n';
+  let big = '';
+  for (let i = 0; i <= 200000; i++) big += `v ${i % 7} 0 0\n`;
+  big += 'f 1 2 3\n';
+  for (const [name, text, want] of [
+    ['far.obj', far.text, /^far\.obj: vertex 1 lies farther than 0\.0\d+ from every tetrahedron .*units and place\?$/],
+    ['flat.obj', flat, /^flat\.obj: triangle 2 is degenerate: a repeated vertex or collinear corners$/],
+    ['broken.obj', 'v 0 0 0\nv 1 x 0\nv 0 1 0\nf 1 2 3\n', /^broken\.obj: OBJ: /],
+    ['empty.stl', 'solid x\nendsolid x\n', /^empty\.stl: expected at least one triangle, found none$/],
+    ['ball.ply', sphere.text, /^ball\.ply: unknown surface file extension "\.ply" \(expected \.obj or \.stl\)$/],
+    ['big.obj', big, /^big\.obj: 200001 vertices: the page takes at most 200000$/],
+  ]) {
+    const bad = await loadSurface(name, text);
+    assert.equal(bad.error, true, `${name}: ${bad.text}`);
+    assert.match(bad.text, want);
+    assert.deepEqual(await embedded(), { vertices: 258, triangles: 512 }, `${name} changed the surface`);
+  }
+  assert.equal((await status()).error, false, 'the body has no error');
+
+  // Held otherwise, the same body keeps its surface file.
+  await page.selectOption('#support', '2');
+  assert.deepEqual(await embedded(), { vertices: 258, triangles: 512 });
+  assert.match((await surfaceStatus()).text, /^ball\.obj: 258 vertices/);
+  await page.check('#gravity');
+  await page.selectOption('#support', '0');
+  assert.deepEqual(pageErrors, []);
+});
+
+test('a surface file follows its mesh file when the page scales it; a new mesh drops it', async () => {
+  // A box in millimetres (scaled to 0.4 m) and a smaller box inside it, in
+  // the same millimetres, as ASCII STL. (The body settles under gravity
+  // meanwhile: sizes to 1%.)
+  const mesh = boxMesh([300, 300, 300], [4, 4, 4]);
+  await page.setInputFiles('#file', { name: 'mm.tetmesh', mimeType: 'text/plain', buffer: Buffer.from(toTetmesh(mesh)) });
+  await page.waitForFunction(() => document.getElementById('status').textContent.startsWith('mm.tetmesh'));
+  assert.match((await status()).text, /scaled ×0\.00133 to 0\.4 m/);
+  assert.deepEqual(await embedded(), { vertices: 0, triangles: 0 });
+  assert.equal(await page.isDisabled('#show-surface'), true);
+  assert.match((await surfaceStatus()).text, /^none: the tetrahedra's boundary is drawn/);
+  const st = await loadSurface('inner.stl', toStl([20, 20, 0], [280, 280, 260]));
+  assert.equal(st.error, false, st.text);
+  assert.deepEqual(await embedded(), { vertices: 8, triangles: 12 });
+  const size = await page.evaluate(() => {
+    const p = new Float32Array(demo.exports.memory.buffer, demo.exports.cf_embedded_positions_ptr(), 24);
+    const n = demo.positions();
+    const ext = (a) => [0, 1, 2].map((k) => {
+      const c = a.filter((_, i) => i % 3 === k);
+      return [Math.min(...c), Math.max(...c)];
+    });
+    return { surface: ext(Array.from(p)), body: ext(n) };
+  });
+  const s = 0.4 / 300;
+  for (let k = 0; k < 3; k++) {
+    const [lo, hi] = size.surface[k], [blo, bhi] = size.body[k];
+    assert.ok(Math.abs(hi - lo - s * 260) < 3e-3, `axis ${k}: ${lo}..${hi}`);
+    assert.ok(Math.abs(lo - (blo + s * (k < 2 ? 20 : 0))) < 3e-3, `axis ${k}: ${lo} vs body ${blo}`);
+    assert.ok(bhi > hi);
+  }
+  assert.equal((await look()).drawn.surfaceTriangles, 12);
+  // A new mesh: the surface of the old one goes.
+  const other = boxMesh([0.3, 0.2, 0.2], [6, 4, 4]);
+  await page.setInputFiles('#file', { name: 'box.msh', mimeType: 'text/plain', buffer: Buffer.from(toMsh41(other)) });
+  await page.waitForFunction(() => document.getElementById('status').textContent.startsWith('box.msh'));
+  assert.deepEqual(await embedded(), { vertices: 0, triangles: 0 });
+  assert.deepEqual((await look()).drawn, { surfaceTriangles: 0, tetTriangles: 2 * 2 * (6 * 4 + 4 * 4 + 6 * 4), edges: 0 });
+  assert.deepEqual(pageErrors, []);
+});
+
+test('moving and shading the embedded surface costs little next to a step (the blob)', async () => {
+  await page.selectOption('#body', '2');
+  await page.click('#pause');
+  const r = await page.evaluate(() => ({ step: demo.bench(300, 50), surface: demo.benchSurface(400, 50) }));
+  await page.click('#pause');
+  console.log(`blob: ${r.step.toFixed(3)} ms/step, ${(1000 * r.surface).toFixed(1)} µs per update_surface + vertex_normals (3458 vertices, 6912 triangles), ${(r.surface / r.step).toFixed(3)} steps`);
+  fs.mkdirSync(path.dirname(TIMING), { recursive: true });
+  fs.writeFileSync(TIMING.replace(/\.json$/, '-surface.json'), JSON.stringify({
+    scene: 'blob 2560 tets on the ground, defaults; its surface 3458 vertices, 6912 triangles',
+    ms_per_step: r.step,
+    ms_per_surface_update: r.surface,
+  }, null, 2) + '\n');
+  assert.ok(r.surface > 0 && r.surface < 0.25 * r.step, JSON.stringify(r));
+});
+
 test('time per step in the browser (the beam, default settings)', async () => {
   await page.selectOption('#body', '1');
   await page.click('#pause'); // nothing else runs while we time
@@ -238,4 +424,60 @@ test('time per step in the browser (the beam, default settings)', async () => {
   fs.mkdirSync(path.dirname(TIMING), { recursive: true });
   fs.writeFileSync(TIMING, JSON.stringify(info, null, 2) + '\n');
   assert.ok(ms > 0 && ms < 16);
+});
+
+test('screenshots with multisampling: the beam pulled, the blob pulled with the edges over its surface', async () => {
+  const pg = await browser.newPage({ viewport: { width: 1280, height: 760 } });
+  pg.on('pageerror', (e) => pageErrors.push(e.message));
+  await pg.goto(`${URL}?antialias=on`);
+  await pg.waitForFunction(() => window.demo?.ready === true, null, { timeout: 20000 });
+  assert.match(await pg.textContent('#renderer'), /^WebGL 2$/);
+  const sim = async (seconds) => {
+    const t0 = await pg.evaluate(() => window.demo.state.stats[8]);
+    await pg.waitForFunction((t) => window.demo.state.stats[8] >= t, t0 + seconds, { timeout: 30000 });
+  };
+  const pull = async (want, dx, dy) => {
+    const [sx, sy] = await surfacePoint(want, pg);
+    await pg.mouse.move(sx, sy);
+    await pg.mouse.down();
+    await pg.mouse.move(sx + dx, sy + dy, { steps: 30 });
+    await sim(0.6);
+    assert.ok(await pg.evaluate(() => demo.exports.cf_grabbed_count()) > 0, 'nothing grabbed');
+  };
+  fs.mkdirSync(path.dirname(SHOT), { recursive: true });
+  await sim(1.0);
+  await pull([0.45, -0.1, 0.75], 20, -200);
+  await pg.screenshot({ path: SHOT });
+  await pg.mouse.up();
+  // The blob, softer (1e5 Pa), pulled up and sideways from its top.
+  await pg.selectOption('#body', '2');
+  await pg.fill('#young', '5');
+  await pg.check('#show-edges');
+  const box = await pg.locator('#canvas').boundingBox();
+  await pg.mouse.move(box.x + 40, box.y + box.height - 40);
+  await pg.mouse.wheel(0, -350); // closer
+  await sim(0.5);
+  await pull([0.05, -0.1, 0.3], -50, -70);
+  const l = await look(pg);
+  assert.equal(l.drawn.surfaceTriangles, 6912);
+  await pg.screenshot({ path: SHOT_SURFACE });
+  await pg.mouse.up();
+  await pg.close();
+  assert.deepEqual(pageErrors, []);
+});
+
+test('without WebGL 2 the page draws with Canvas 2D: the embedded surface and the edges too', async () => {
+  const pg = await browser.newPage({ viewport: { width: 1280, height: 760 } });
+  pg.on('pageerror', (e) => pageErrors.push(e.message));
+  await pg.goto(`${URL}?renderer=2d`);
+  await pg.waitForFunction(() => window.demo?.ready === true, null, { timeout: 20000 });
+  assert.equal(await pg.evaluate(() => demo.renderer), '2d');
+  await pg.selectOption('#body', '2');
+  await pg.check('#show-edges');
+  const l = await look(pg);
+  assert.equal(l.drawn.surfaceTriangles, 6912);
+  assert.ok(l.drawn.edges > 0);
+  assert.ok(l.pixels > 20000 && l.bright > 1000, JSON.stringify(l));
+  await pg.close();
+  assert.deepEqual(pageErrors, []);
 });

@@ -63,6 +63,28 @@ test('the two-level preconditioner steps the beam; an unknown one is refused', (
   assert.match(msg, /no preconditioner 7/);
 });
 
+test('the built-in bodies carry their smooth surfaces; a surface file is read and bound', () => {
+  for (const [body, vertices, triangles] of [[0, 1538, 3072], [1, 2680, 5356], [2, 3458, 6912]]) {
+    assert.equal(x.cf_load_body(body, 99), 0);
+    assert.equal(x.cf_embedded_vertex_count(), vertices);
+    assert.equal(x.cf_embedded_triangle_count(), triangles);
+    assert.equal(x.cf_embedded_update(), 1);
+    const n = new Float32Array(x.memory.buffer, x.cf_embedded_normals_ptr(), 3 * vertices);
+    for (let i = 0; i < vertices; i++) {
+      assert.ok(Math.abs(Math.hypot(n[3 * i], n[3 * i + 1], n[3 * i + 2]) - 1) < 1e-5);
+    }
+  }
+  // A tetrahedron-shaped OBJ inside the blob, its name before its bytes.
+  const name = new TextEncoder().encode('t.obj');
+  const obj = new TextEncoder().encode('v 0 0 0\nv 0.1 0 0\nv 0 0.1 0\nv 0 0 0.1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n');
+  const ptr = x.cf_input(name.length + obj.length);
+  new Uint8Array(x.memory.buffer, ptr, name.length + obj.length).set([...name, ...obj]);
+  assert.equal(x.cf_load_surface_input(name.length), 0);
+  const msg = new TextDecoder().decode(new Uint8Array(x.memory.buffer, x.cf_message_ptr(), x.cf_message_len()));
+  assert.equal(msg, '4 vertices, 4 triangles');
+  assert.equal(x.cf_embedded_vertex_count(), 4);
+});
+
 test('time per step in Node (the beam, default settings)', () => {
   assert.equal(x.cf_load_body(1, 99), 0);
   assert.equal(x.cf_set_params(2e6, 0.3, 0, 0.002, 10, 1, 0), 0);

@@ -74,3 +74,48 @@ export function toMsh2({ nodes, tets }) {
 export function toTetmesh({ nodes, tets }) {
   return ['tetmesh 1', `${nodes.length} ${tets.length}`, ...nodes.map((p) => p.join(' ')), ...tets.map((t) => t.join(' ')), ''].join('\n');
 }
+
+// A sphere of radius `r` around `centre` as OBJ text: an octahedron
+// subdivided `levels` times, its vertices pushed onto the sphere
+// (6 + 12 (4^levels − 1) / 3 vertices, 8 · 4^levels triangles, wound
+// counter-clockwise seen from outside).
+export function sphereObj(centre, r, levels) {
+  const v = [[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]];
+  let f = [[0, 2, 4], [2, 1, 4], [1, 3, 4], [3, 0, 4], [2, 0, 5], [1, 2, 5], [3, 1, 5], [0, 3, 5]];
+  for (let l = 0; l < levels; l++) {
+    const mid = new Map();
+    const half = (a, b) => {
+      const key = `${Math.min(a, b)},${Math.max(a, b)}`;
+      if (!mid.has(key)) {
+        const m = [0, 1, 2].map((k) => v[a][k] + v[b][k]);
+        const len = Math.hypot(...m);
+        v.push(m.map((x) => x / len));
+        mid.set(key, v.length - 1);
+      }
+      return mid.get(key);
+    };
+    f = f.flatMap(([a, b, c]) => {
+      const ab = half(a, b), bc = half(b, c), ca = half(c, a);
+      return [[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]];
+    });
+  }
+  const lines = ['# a sphere', 'o sphere'];
+  for (const p of v) lines.push(`v ${p.map((x, k) => centre[k] + r * x).join(' ')}`);
+  for (const t of f) lines.push(`f ${t.map((i) => i + 1).join(' ')}`);
+  return { text: lines.join('\n') + '\n', vertices: v.length, triangles: f.length };
+}
+
+// The box [lo, hi] as ASCII STL: 12 triangles wound outward.
+export function toStl(lo, hi) {
+  const corner = (c) => [0, 1, 2].map((k) => ((c >> k) & 1 ? hi[k] : lo[k]));
+  // Each face as four corners counter-clockwise seen from outside.
+  const faces = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
+  const out = ['solid box'];
+  for (const [a, b, c, d] of faces) {
+    for (const t of [[a, b, c], [a, c, d]]) {
+      out.push('facet normal 0 0 0', 'outer loop', ...t.map((i) => `vertex ${corner(i).join(' ')}`), 'endloop', 'endfacet');
+    }
+  }
+  out.push('endsolid box', '');
+  return out.join('\n');
+}

@@ -1,12 +1,20 @@
 // corofem web demo: loads corofem_web.wasm (plain extern "C" exports, no
-// imports), draws the body's surface on a 2D canvas with flat shading, and
-// turns mouse drags into the haptic tool's target.
+// imports), draws the body — its embedded surface smooth-shaded, or the
+// tetrahedra's boundary flat-shaded — with WebGL 2 (gl.js) onto a 2D canvas
+// that holds the ground, the shadow and the tool (Canvas 2D alone where
+// WebGL 2 is missing), and turns mouse drags into the haptic tool's target.
 //
 // Coordinates: metres, z up. The camera orbits `cam.target`.
+
+import { createRenderer } from './gl.js';
 
 const $ = (id) => document.getElementById(id);
 const canvas = $('canvas');
 const ctx = canvas.getContext('2d');
+// `?antialias=on|off` overrides the renderer's choice (see gl.js);
+// `?renderer=2d` draws with Canvas 2D as where WebGL 2 is missing.
+const query = new URLSearchParams(location.search);
+const gl = query.get('renderer') === '2d' ? null : createRenderer(query.get('antialias') ?? 'auto');
 
 // ---------------------------------------------------------------- module
 const { instance } = await WebAssembly.instantiateStreaming(fetch('corofem_web.wasm'), {});
@@ -29,8 +37,11 @@ const state = {
   fps: 0,
   lastFrame: 0,
   stats: new Float32Array(12),
-  body: null,          // { name, nodes, tets, tris: Uint32Array, fixedTris: Uint8Array, weight }
-  file: null,          // { name, bytes } of the last file loaded
+  body: null,          // { name, nodes, tets, tris: Uint32Array, fixedTris: Uint8Array, weight, embedded }
+  file: null,          // { name, bytes } of the last mesh file loaded
+  surfaceFile: null,   // { name, bytes } of the surface file embedded in the body, if any
+  msSurface: 0,        // smoothed wasm time to move and shade the embedded surface
+  drawn: null,         // what the last frame drew: { surfaceTriangles, tetTriangles, edges }
   pull: null,          // { plane point, normal } while dragging the body
   orbit: null,         // { x, y, yaw, pitch } while orbiting
   error: null,
@@ -91,7 +102,10 @@ $('support').addEventListener('change', () => {
     $('gravity').checked = false; // a free body would only fall away
     applyParams();
   }
-  if ($('body').value === 'file' && state.file) loadFile(state.file); else loadBody();
+  // The same body again, held otherwise: its surface file too.
+  const surface = state.surfaceFile;
+  const ok = $('body').value === 'file' && state.file ? loadFile(state.file) : loadBody();
+  if (ok && surface) loadSurface(surface);
 });
 $('file').addEventListener('change', async () => {
   const f = $('file').files[0];
@@ -99,21 +113,39 @@ $('file').addEventListener('change', async () => {
   loadFile({ name: f.name, bytes: new Uint8Array(await f.arrayBuffer()) });
   $('file').value = ''; // choosing the same file again loads it again
 });
+$('surface-file').addEventListener('change', async () => {
+  const f = $('surface-file').files[0];
+  if (!f) return;
+  loadSurface({ name: f.name, bytes: new Uint8Array(await f.arrayBuffer()) });
+  $('surface-file').value = '';
+});
+$('show-surface').addEventListener('change', showView);
+$('show-edges').addEventListener('change', showView);
 
 // ---------------------------------------------------------------- loading
 function loadBody() {
   const b = Number($('body').value);
   if (x.cf_load_body(b, Number($('support').value)) !== 0) {
     setStatus(message(), true);
-    return;
+    return false;
   }
   afterLoad(['cube', 'beam', 'blob'][b]);
   setStatus('');
+  return true;
+}
+
+// Copies `parts` (byte arrays) one after the other into the module's input
+// buffer.
+function input(...parts) {
+  const len = parts.reduce((n, p) => n + p.length, 0);
+  const ptr = x.cf_input(len);
+  const buf = new Uint8Array(x.memory.buffer, ptr, len);
+  let at = 0;
+  for (const p of parts) { buf.set(p, at); at += p.length; }
 }
 
 function loadFile(file) {
-  const ptr = x.cf_input(file.bytes.length);
-  new Uint8Array(x.memory.buffer, ptr, file.bytes.length).set(file.bytes);
+  input(file.bytes);
   if (x.cf_load_input(Number($('support').value)) !== 0) {
     setStatus(`${file.name}: ${message()}`, true);
     return false;
@@ -131,6 +163,64 @@ function loadFile(file) {
   const note = message();
   setStatus(`${file.name}: ${x.cf_tet_count()} tetrahedra, ${x.cf_node_count()} nodes. ${note}`);
   return true;
+}
+
+// A surface file (OBJ, STL) embedded in the body: the module reads it by its
+// name's extension, places it as it placed the body's mesh and binds it.
+// On error the body and the surface it had stay.
+function loadSurface(file) {
+  const name = new TextEncoder().encode(file.name);
+  input(name, file.bytes);
+  const failed = x.cf_load_surface_input(name.length) !== 0;
+  const text = `${file.name}: ${message()}`;
+  if (failed) {
+    setSurfaceStatus(text, true);
+    return false;
+  }
+  state.surfaceFile = file;
+  afterEmbed();
+  setSurfaceStatus(text);
+  $('show-surface').checked = true;
+  showView();
+  return true;
+}
+
+function setSurfaceStatus(text, isError = false) {
+  $('surface-status').textContent = text;
+  $('surface-status').className = isError ? 'error' : '';
+}
+
+// The embedded surface the module holds now (none, the body's own, a file's).
+function afterEmbed() {
+  const nv = x.cf_embedded_vertex_count(), nt = x.cf_embedded_triangle_count();
+  state.body.embedded = nv ? {
+    vertexCount: nv,
+    triangles: u32(x.cf_embedded_triangles_ptr(), 3 * nt).slice(),
+    held: new Uint8Array(x.memory.buffer, x.cf_embedded_held_ptr(), nv).slice(),
+  } : null;
+  const e = state.body.embedded;
+  if (e) {
+    // Per triangle, for the Canvas 2D path: all three corners held.
+    e.heldTris = new Uint8Array(nt);
+    for (let t = 0; t < nt; t++) e.heldTris[t] = e.held[e.triangles[3 * t]] & e.held[e.triangles[3 * t + 1]] & e.held[e.triangles[3 * t + 2]];
+  }
+  gl?.setSurface(e);
+  state.msSurface = 0;
+  showView();
+}
+
+// Draw the embedded surface or the boundary; the checkbox is off and
+// disabled when there is no surface.
+function showView() {
+  const has = Boolean(state.body?.embedded);
+  $('show-surface').disabled = !has;
+  if (!has) $('show-surface').checked = false;
+  const b = state.body;
+  if (!b) return;
+  const e = b.embedded;
+  const parts = [`${b.name}: ${b.nodes} nodes · ${b.tets} tets · ${b.tris.length / 3} faces`];
+  if (e) parts.push(`surface ${e.vertexCount} vertices · ${e.triangles.length / 3} triangles`);
+  $('counts').innerHTML = parts.map((p) => `<div>${p.replace(/&/g, '&amp;').replace(/</g, '&lt;')}</div>`).join('');
 }
 
 function afterLoad(name) {
@@ -173,13 +263,33 @@ function afterLoad(name) {
     wall = [[wlo[0], wlo[1] - m, wlo[2] - m], [wlo[0], whi[1] + m, wlo[2] - m],
       [wlo[0], whi[1] + m, whi[2] + m], [wlo[0], wlo[1] - m, whi[2] + m]];
   }
-  state.body = { name, nodes: n, tets: x.cf_tet_count(), tris, fixedTris, weight: 1000 * vol * 9.81, size, wall };
+  // The boundary's edges, each once, for the wireframe.
+  const seen = new Set(), edges = [];
+  for (let t = 0; t < tris.length; t += 3) {
+    for (let k = 0; k < 3; k++) {
+      const a = tris[t + k], b = tris[t + (k + 1) % 3];
+      const key = Math.min(a, b) * n + Math.max(a, b);
+      if (!seen.has(key)) { seen.add(key); edges.push(a, b); }
+    }
+  }
+  state.body = {
+    name, nodes: n, tets: x.cf_tet_count(), tris, fixedTris, fixed, edges: new Uint32Array(edges),
+    weight: 1000 * vol * 9.81, size, wall, embedded: null,
+  };
   state.steps = 0;
   state.stats.fill(0);
   state.body.centre = [0, 0, 0.5 * (lo[2] + hi[2])];
   cam.target = [...state.body.centre];
   cam.dist = 0.8 + 1.6 * size;
-  $('counts').textContent = `${name}: ${n} nodes · ${state.body.tets} tets · ${tris.length / 3} faces`;
+  gl?.setTets(n, tris, state.body.edges, fixed);
+  // A new body drops the surface file of the last one; a built-in body
+  // comes with its own smooth surface.
+  state.surfaceFile = null;
+  afterEmbed();
+  $('show-surface').checked = Boolean(state.body.embedded);
+  setSurfaceStatus(state.body.embedded
+    ? `built-in smooth surface (${state.body.embedded.vertexCount} vertices); a file replaces it`
+    : 'none: the tetrahedra\'s boundary is drawn');
 }
 
 // ---------------------------------------------------------------- camera
@@ -194,8 +304,10 @@ function camera() {
   const r = norm(cross(f, [0, 0, 1]));
   const u = cross(r, f);
   const focal = 0.5 * canvas.height / Math.tan(0.5 * cam.fov);
-  return { eye, f, r, u, focal, cx: 0.5 * canvas.width, cy: 0.5 * canvas.height };
+  return { eye, f, r, u, focal, cx: 0.5 * canvas.width, cy: 0.5 * canvas.height, light: LIGHT };
 }
+// The key light, fixed in the world: above, from −x −y.
+const LIGHT = [-0.4, -0.5, 0.85].map((v, _, a) => v / Math.hypot(...a));
 const sub = (a, b) => [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
 const add = (a, b) => [a[0] + b[0], a[1] + b[1], a[2] + b[2]];
 const scale = (a, s) => [a[0] * s, a[1] * s, a[2] * s];
@@ -300,14 +412,8 @@ function segment(c, a, b) {
 
 function drawBody(c, p) {
   const b = state.body;
-  const n = b.nodes;
-  const sx = new Float32Array(n), sy = new Float32Array(n), sz = new Float32Array(n);
-  for (let i = 0; i < n; i++) {
-    const q = project(c, [p[3 * i], p[3 * i + 1], p[3 * i + 2]]);
-    sx[i] = q[0]; sy[i] = q[1]; sz[i] = q[2];
-  }
-  // Shadow on the ground: the upward-facing triangles flattened onto z = 0
-  // (they cover the body's footprint with one winding), filled once.
+  // Shadow on the ground: the boundary's upward-facing triangles flattened
+  // onto z = 0 (they cover the body's footprint with one winding), filled once.
   if (x.cf_support() !== 2 && c.eye[2] > 0) {
     ctx.beginPath();
     for (let t = 0; t < b.tris.length; t += 3) {
@@ -337,16 +443,85 @@ function drawBody(c, p) {
     ctx.fill();
     ctx.stroke();
   }
-  // Front faces, far to near, flat-shaded by a key light fixed in the world
-  // (above, from −x −y) and a head light.
-  const light = norm([-0.4, -0.5, 0.85]);
+  // The embedded surface moved to the body's shape and shaded, in the module.
+  const e = $('show-surface').checked ? b.embedded : null;
+  let skin = null;
+  if (e) {
+    const t0 = performance.now();
+    x.cf_embedded_update();
+    const ms = performance.now() - t0;
+    state.msSurface = state.msSurface ? 0.95 * state.msSurface + 0.05 * ms : ms;
+    skin = {
+      positions: f32(x.cf_embedded_positions_ptr(), 3 * e.vertexCount),
+      normals: f32(x.cf_embedded_normals_ptr(), 3 * e.vertexCount),
+    };
+  }
+  const edges = $('show-edges').checked;
+  if (gl) {
+    const rect = screenRect(c, skin ? skin.positions : p);
+    state.drawn = gl.draw(c, rect, p, skin, edges);
+    ctx.drawImage(gl.canvas, rect.x, rect.y);
+    return;
+  }
+  // Canvas 2D: flat-shaded triangles sorted far to near; the edges of the
+  // boundary's front faces on top.
+  state.drawn = { surfaceTriangles: 0, tetTriangles: 0, edges: 0 };
+  if (skin) {
+    fill2d(c, skin.positions, e.triangles, e.heldTris);
+    state.drawn.surfaceTriangles = e.triangles.length / 3;
+  } else {
+    fill2d(c, p, b.tris, b.fixedTris);
+    state.drawn.tetTriangles = b.tris.length / 3;
+  }
+  if (edges) {
+    ctx.beginPath();
+    for (let t = 0; t < b.tris.length; t += 3) {
+      const v = [0, 1, 2].map((k) => { const i = 3 * b.tris[t + k]; return [p[i], p[i + 1], p[i + 2]]; });
+      if (dot(cross(sub(v[1], v[0]), sub(v[2], v[0])), sub(c.eye, v[0])) <= 0) continue;
+      const q = v.map((w) => project(c, w));
+      if (q.some((w) => w[2] <= 0.01)) continue;
+      ctx.moveTo(q[0][0], q[0][1]); ctx.lineTo(q[1][0], q[1][1]); ctx.lineTo(q[2][0], q[2][1]); ctx.closePath();
+      state.drawn.edges += 1.5;
+    }
+    ctx.strokeStyle = 'rgba(238,245,255,0.75)';
+    ctx.lineWidth = 1;
+    ctx.stroke();
+  }
+}
+
+// The pixels the points `p` (x y z each) cover on the canvas, with a margin
+// for lines; the whole canvas when one is near or behind the eye.
+function screenRect(c, p) {
+  let x0 = Infinity, y0 = Infinity, x1 = -Infinity, y1 = -Infinity;
+  for (let i = 0; i < p.length; i += 3) {
+    const q = project(c, [p[i], p[i + 1], p[i + 2]]);
+    if (!(q[2] > 0.05)) return { x: 0, y: 0, w: canvas.width, h: canvas.height };
+    x0 = Math.min(x0, q[0]); x1 = Math.max(x1, q[0]);
+    y0 = Math.min(y0, q[1]); y1 = Math.max(y1, q[1]);
+  }
+  const m = 4;
+  x0 = Math.max(0, Math.floor(x0) - m); y0 = Math.max(0, Math.floor(y0) - m);
+  x1 = Math.min(canvas.width, Math.ceil(x1) + m); y1 = Math.min(canvas.height, Math.ceil(y1) + m);
+  return x1 > x0 && y1 > y0 ? { x: x0, y: y0, w: x1 - x0, h: y1 - y0 } : { x: 0, y: 0, w: 1, h: 1 };
+}
+
+// Triangles `tris` of the points `p` (x y z each), front faces far to near,
+// flat-shaded by the key light and a head light; `held` marks per triangle
+// those drawn grey.
+function fill2d(c, p, tris, held) {
+  const n = p.length / 3;
+  const sx = new Float32Array(n), sy = new Float32Array(n), sz = new Float32Array(n);
+  for (let i = 0; i < n; i++) {
+    const q = project(c, [p[3 * i], p[3 * i + 1], p[3 * i + 2]]);
+    sx[i] = q[0]; sy[i] = q[1]; sz[i] = q[2];
+  }
   const order = [];
-  for (let t = 0, k = 0; t < b.tris.length; t += 3, k++) {
-    const ia = 3 * b.tris[t], ib = 3 * b.tris[t + 1], ic = 3 * b.tris[t + 2];
+  for (let t = 0, k = 0; t < tris.length; t += 3, k++) {
+    const ia = 3 * tris[t], ib = 3 * tris[t + 1], ic = 3 * tris[t + 2];
     const a = [p[ia], p[ia + 1], p[ia + 2]];
     const nrm = cross(sub([p[ib], p[ib + 1], p[ib + 2]], a), sub([p[ic], p[ic + 1], p[ic + 2]], a));
     if (dot(nrm, sub(c.eye, a)) <= 0) continue;
-    const za = sz[b.tris[t]], zb = sz[b.tris[t + 1]], zc = sz[b.tris[t + 2]];
+    const za = sz[tris[t]], zb = sz[tris[t + 1]], zc = sz[tris[t + 2]];
     if (za <= 0.01 || zb <= 0.01 || zc <= 0.01) continue;
     order.push([za + zb + zc, k, nrm]);
   }
@@ -355,12 +530,12 @@ function drawBody(c, p) {
   ctx.lineWidth = 0.8;
   for (const [, k, nrm] of order) {
     const l = Math.hypot(nrm[0], nrm[1], nrm[2]) || 1;
-    const ndl = dot(nrm, light) / l;
+    const ndl = dot(nrm, LIGHT) / l;
     const head = -dot(nrm, c.f) / l;
     const s = 0.3 + 0.62 * Math.max(0, ndl) + 0.12 * Math.max(0, head);
-    const base = b.fixedTris[k] ? [120, 124, 132] : [86, 156, 214];
+    const base = held[k] ? [120, 124, 132] : [86, 156, 214];
     const col = `rgb(${Math.min(255, base[0] * s) | 0},${Math.min(255, base[1] * s) | 0},${Math.min(255, base[2] * s) | 0})`;
-    const i0 = b.tris[3 * k], i1 = b.tris[3 * k + 1], i2 = b.tris[3 * k + 2];
+    const i0 = tris[3 * k], i1 = tris[3 * k + 1], i2 = tris[3 * k + 2];
     ctx.beginPath();
     ctx.moveTo(sx[i0], sy[i0]);
     ctx.lineTo(sx[i1], sy[i1]);
@@ -371,10 +546,9 @@ function drawBody(c, p) {
     ctx.fill();
     ctx.stroke();
   }
-  return { sx, sy };
 }
 
-function drawTool(c, screen) {
+function drawTool(c, p) {
   if (!x.cf_grab_state()) return;
   const v = f32(x.cf_vec_ptr(), 6);
   const attach = [v[0], v[1], v[2]], target = [v[3], v[4], v[5]];
@@ -385,8 +559,10 @@ function drawTool(c, screen) {
   ctx.fillStyle = 'rgba(242,158,76,0.85)';
   const g = u32(x.cf_grabbed_ptr(), x.cf_grabbed_count());
   for (const i of g) {
+    const q = project(c, [p[3 * i], p[3 * i + 1], p[3 * i + 2]]);
+    if (q[2] <= 0.01) continue;
     ctx.beginPath();
-    ctx.arc(screen.sx[i], screen.sy[i], 2 * dpr(), 0, 2 * Math.PI);
+    ctx.arc(q[0], q[1], 2 * dpr(), 0, 2 * Math.PI);
     ctx.fill();
   }
   // The spring, body to cursor.
@@ -455,14 +631,15 @@ function draw() {
   } else {
     drawGround(c);
   }
-  const screen = drawBody(c, p);
-  drawTool(c, screen);
+  drawBody(c, p);
+  drawTool(c, p);
 }
 
 // ---------------------------------------------------------------- loop
 function showStats() {
   const s = state.stats;
   $('ms-step').textContent = state.msPerStep.toFixed(3);
+  $('ms-surface').textContent = state.drawn?.surfaceTriangles ? state.msSurface.toFixed(3) : '–';
   $('steps-frame').textContent = s[0] | 0;
   $('fps').textContent = state.fps.toFixed(0);
   $('sim-time').textContent = s[8].toFixed(2);
@@ -508,6 +685,9 @@ function frame(now) {
 // ---------------------------------------------------------------- start
 showControls();
 applyParams();
+$('renderer').textContent = gl
+  ? `WebGL 2${gl.antialias ? '' : ', no multisampling'}`
+  : 'Canvas 2D (flat shading, sorted triangles)';
 $('body').value = '1';
 $('support').value = '1';
 loadBody();
@@ -518,7 +698,9 @@ window.demo = {
   state,
   exports: x,
   positions: () => Array.from(f32(x.cf_positions_ptr(), 3 * state.body.nodes)),
+  // The tetrahedra's boundary triangles (what picking hits).
   surface: () => Array.from(state.body.tris),
+  renderer: gl ? 'webgl2' : '2d',
   eye: () => camera().eye,
   draw,
   // Canvas point (CSS pixels, relative to the canvas) of a world point.
@@ -535,6 +717,19 @@ window.demo = {
     const ms = (performance.now() - t0) / done;
     x.cf_reset();
     return ms;
+  },
+  // Milliseconds per move-and-shade of the embedded surface (update_surface
+  // and vertex_normals in the module), `count` calls after `warmup`, with
+  // the body deformed by `steps` steps first; the state is then reset.
+  benchSurface: (count = 400, warmup = 50, steps = 200) => {
+    x.cf_step(steps);
+    for (let i = 0; i < warmup; i++) x.cf_embedded_update();
+    const t0 = performance.now();
+    let done = 0;
+    for (let i = 0; i < count; i++) done += x.cf_embedded_update();
+    const ms = (performance.now() - t0) / Math.max(done, 1);
+    x.cf_reset();
+    return done ? ms : NaN;
   },
   ready: true,
 };
