@@ -11,7 +11,8 @@
 //!   no tetrahedron uses.
 //! * [`read_surface`] reads a triangle [`Surface`] (Wavefront `.obj`, `.stl`)
 //!   to embed in a mesh (feature `surface`); [`parse_surface`] reads one from
-//!   bytes.
+//!   bytes. [`boundary_surface`] is a mesh's boundary as a surface, and
+//!   [`loop_subdivide`] smooths a surface.
 //! * [`VtkSeries`] writes a simulation as `.vtu` frames plus a ParaView `.pvd`
 //!   collection; [`write_vtk_mesh`] and [`write_tetmesh`] write a single mesh.
 //!
@@ -54,6 +55,7 @@ mod stats;
 pub mod surface;
 pub mod tetmesh;
 mod text;
+mod triangles;
 #[cfg(feature = "vtk")]
 pub mod vtk;
 
@@ -68,11 +70,9 @@ pub use mesh::{drop_unused_nodes, Mesh};
 pub use series::{VtkSeries, PVD_NAME, SURFACE_PVD_NAME};
 pub use stats::{dihedral_angles_deg, mesh_stats, tet_volume, MeshStats, ZERO_VOLUME_RTOL};
 #[cfg(feature = "surface")]
-pub use surface::{
-    boundary_surface, boundary_triangles, loop_subdivide, parse_surface, read_surface, Surface,
-    SurfaceFormat,
-};
+pub use surface::{parse_surface, read_surface, SurfaceFormat};
 pub use tetmesh::{format_tetmesh, parse_tetmesh, write_tetmesh};
+pub use triangles::{boundary_surface, boundary_triangles, loop_subdivide, Surface};
 #[cfg(feature = "vtk")]
 pub use vtk::{parse_vtk_legacy, parse_vtu, write_vtk_mesh};
 

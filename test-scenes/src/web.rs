@@ -8,7 +8,6 @@
 //! and the host test `host-tests/tests/web_hash.rs` both use this module:
 //! the scene is defined once.
 
-use std::collections::HashMap;
 
 // The scene is a `VecScene`: in vectors sized at run time (the body can come
 // from a file), with a grab and a load slot for every node.
@@ -39,14 +38,8 @@ pub enum Body {
 }
 
 /// A triangle surface: vertices (m) and triangles indexing them, wound
-/// counter-clockwise seen from outside.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct TriangleSurface {
-    /// Vertex positions (m).
-    pub vertices: Vec<[f32; 3]>,
-    /// Triangles as indices into `vertices`.
-    pub triangles: Vec<[u32; 3]>,
-}
+/// counter-clockwise seen from outside (corofem-io's).
+pub use corofem_io::Surface as TriangleSurface;
 
 impl Body {
     /// Body by page index: 0 cube, 1 beam, 2 blob.
@@ -460,8 +453,8 @@ impl App {
         let elems: Vec<[u32; 4]> = (0..scene.element_count())
             .filter_map(|e| scene.element_nodes(e))
             .collect();
-        let surface = surface(&elems);
-        let edge = mean_edge(&rest, &elems);
+        let surface = corofem_io::boundary_triangles(&elems);
+        let edge = scene.mean_edge_length();
         let mut app = App {
             positions: vec![0.0; 3 * rest.len()],
             scene,
@@ -829,47 +822,6 @@ pub fn bounds(points: &[[f32; 3]]) -> ([f32; 3], [f32; 3]) {
     (lo, hi)
 }
 
-/// The boundary triangles of positively oriented tetrahedra, wound so that
-/// `(b − a) × (c − a)` points out of the body, in the order the tetrahedra
-/// list them (deterministic).
-///
-/// For `det[b−a, c−a, d−a] > 0` the outward faces of `(a, b, c, d)` are
-/// `(a, c, b)`, `(a, b, d)`, `(a, d, c)` and `(b, c, d)`: each is wound so
-/// that its normal points away from the fourth node.
-pub fn surface(tets: &[[u32; 4]]) -> Vec<[u32; 3]> {
-    let faces = |t: &[u32; 4]| {
-        let [a, b, c, d] = *t;
-        [[a, c, b], [a, b, d], [a, d, c], [b, c, d]]
-    };
-    let key = |f: [u32; 3]| {
-        let mut k = f;
-        k.sort_unstable();
-        k
-    };
-    let mut count: HashMap<[u32; 3], u32> = HashMap::with_capacity(4 * tets.len());
-    for t in tets {
-        for f in faces(t) {
-            *count.entry(key(f)).or_insert(0) += 1;
-        }
-    }
-    tets.iter()
-        .flat_map(faces)
-        .filter(|&f| count.get(&key(f)) == Some(&1))
-        .collect()
-}
-
-fn mean_edge(nodes: &[[f32; 3]], tets: &[[u32; 4]]) -> f32 {
-    let p = |i: u32| nodes.get(i as usize).copied().unwrap_or([0.0; 3]);
-    let mut sum = 0.0f64;
-    for t in tets {
-        for (a, b) in [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)] {
-            let d = sub(p(t[b]), p(t[a]));
-            sum += f64::from(dot(d, d).sqrt());
-        }
-    }
-    (sum / (6.0 * tets.len().max(1) as f64)) as f32
-}
-
 fn sub(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
@@ -1004,6 +956,7 @@ pub fn hash_script() -> Result<u64, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::collections::HashMap;
 
     #[test]
     fn bodies_build_with_their_sizes() {
@@ -1021,7 +974,7 @@ mod tests {
     #[test]
     fn surface_faces_point_outwards_and_close() {
         let mesh = Body::Blob.mesh();
-        let s = surface(&mesh.tets);
+        let s = corofem_io::boundary_triangles(&mesh.tets);
         // 6 faces × 8×8 squares × 2 triangles.
         assert_eq!(s.len(), 768);
         let p = |i: u32| mesh.nodes[i as usize];
