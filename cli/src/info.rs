@@ -9,8 +9,14 @@ use crate::error::{CliError, CliResult};
 use crate::mesh_input::plural;
 use crate::scene_file::MAX_NODES;
 
-/// Reads `path` and prints its figures on stdout.
+/// Reads `path` and prints its figures on stdout: a mesh's, or a surface's
+/// for an `.obj` or `.stl` file.
 pub fn info(path: &Path) -> CliResult<()> {
+    if corofem_io::SurfaceFormat::from_path(path).is_some() {
+        let surface = corofem_io::read_surface(path).map_err(|e| CliError(e.to_string()))?;
+        print!("{}", surface_report(&path.display().to_string(), &surface));
+        return Ok(());
+    }
     let mesh = corofem_io::read_mesh(path).map_err(|e| CliError(e.to_string()))?;
     let stats = corofem_io::mesh_stats(&mesh);
     print!("{}", report(&path.display().to_string(), &stats));
@@ -65,6 +71,71 @@ pub fn report(name: &str, s: &MeshStats) -> String {
             "  note           too many nodes for corofem (at most {MAX_NODES})"
         );
     }
+    o
+}
+
+/// The report of a surface file: counts, bounding box, how closed and how
+/// consistently wound it is, and whether `[visual]` can bind it.
+pub fn surface_report(name: &str, s: &corofem_io::Surface) -> String {
+    let mut o = String::new();
+    let mut used = vec![false; s.vertices.len()];
+    for &i in s.triangles.iter().flatten() {
+        used[i as usize] = true;
+    }
+    let unused = used.iter().filter(|&&u| !u).count();
+    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+    for p in &s.vertices {
+        for k in 0..3 {
+            lo[k] = lo[k].min(f64::from(p[k]));
+            hi[k] = hi[k].max(f64::from(p[k]));
+        }
+    }
+    // Each edge's uses, counted +1 one way round and −1 the other: a closed,
+    // consistently wound surface uses every edge twice, once each way.
+    let mut edges: std::collections::HashMap<(u32, u32), (u32, i32)> =
+        std::collections::HashMap::new();
+    for t in &s.triangles {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            let e = edges.entry((a.min(b), a.max(b))).or_insert((0, 0));
+            e.0 += 1;
+            e.1 += if a < b { 1 } else { -1 };
+        }
+    }
+    let open = edges.values().filter(|e| e.0 == 1).count();
+    let shared = edges.values().filter(|e| e.0 > 2).count();
+    let flipped = edges.values().filter(|e| e.0 == 2 && e.1 != 0).count();
+    let v3 = |v: [f64; 3]| format!("[{}, {}, {}]", g(v[0]), g(v[1]), g(v[2]));
+    let _ = writeln!(o, "{name}");
+    let _ = writeln!(
+        o,
+        "  vertices       {} ({unused} in no triangle)",
+        s.vertices.len()
+    );
+    let _ = writeln!(o, "  triangles      {}", s.triangles.len());
+    let _ = writeln!(
+        o,
+        "  bounding box   {} .. {}  (size {})",
+        v3(lo),
+        v3(hi),
+        v3([0, 1, 2].map(|k| hi[k] - lo[k]))
+    );
+    let closed = if open == 0 && shared == 0 && flipped == 0 {
+        "closed, consistently wound".to_owned()
+    } else {
+        format!(
+            "{} on one triangle only, {} on more than two, {} wound the same way twice",
+            plural(open, "edge"),
+            plural(shared, "edge"),
+            plural(flipped, "edge")
+        )
+    };
+    let _ = writeln!(o, "  edges          {} ({closed})", edges.len());
+    let check = match corofem::check_surface(&s.vertices, &s.triangles) {
+        Ok(()) => "binds, if within reach of the tetrahedra ([visual])".to_owned(),
+        Err(e) => format!("refused by [visual]: {e}"),
+    };
+    let _ = writeln!(o, "  surface        {check}");
     o
 }
 

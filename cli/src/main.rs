@@ -42,7 +42,8 @@ enum Command {
         #[arg(long, value_name = "RESULT.json")]
         out: Option<PathBuf>,
         /// Also write a VTK time series into DIR: one .vtu frame per history
-        /// record and series.pvd to open in ParaView.
+        /// record and series.pvd to open in ParaView (and, with a [visual]
+        /// surface, its frames and surface.pvd beside them).
         #[arg(long, value_name = "DIR")]
         vtk: Option<PathBuf>,
         /// No progress bar, notes or summary on stderr (errors still appear).
@@ -50,9 +51,10 @@ enum Command {
         quiet: bool,
     },
     /// Print counts, bounding box, volumes, quality and orientation of a mesh
-    /// file (.tetmesh, Gmsh .msh, .vtk, .vtu).
+    /// file (.tetmesh, Gmsh .msh, .vtk, .vtu), or counts, bounding box and
+    /// closedness of a surface file (.obj, .stl).
     Info {
-        /// The mesh file.
+        /// The mesh or surface file.
         mesh: PathBuf,
     },
 }
@@ -81,6 +83,11 @@ docs/scene-format.md. Among the scene keys:
   [solver] newton_tolerance = 1e-5  static solve: out-of-balance force / load to stop at; it
                                     also stops when an update moves the body by at most 1e-4
                                     of its displacement and its CG solve reached cg_tolerance
+  [visual] file = \"skin.obj\"       a detailed surface (.obj or .stl, in the mesh file's
+                                    coordinates) carried by the tetrahedra; the result gets
+                                    visual.final_positions, --vtk writes surface.pvd too
+  [visual] reach = 0.002            how far outside the tetrahedra a vertex may lie (m;
+                                    default half their mean edge length)
 Defaults: [material] young 1e6, poisson 0.3, density 1000; [solver] method
 \"qr-invertible\" (QR's bits wherever no element is inverted), dt 0.001,
 preconditioner \"two-level\" with cg_iterations 4 and warm_start true (\"mass\": 5, false;

@@ -706,6 +706,42 @@ fn info_describes_a_mesh() {
 }
 
 #[test]
+fn info_describes_a_surface() {
+    let dir = TempDir::new("info-surface");
+    dir.write("octahedron.obj", OCTAHEDRON);
+    let o = corofem(&["info", "octahedron.obj"], &dir.0);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    for line in [
+        "  vertices       6 (0 in no triangle)",
+        "  triangles      8",
+        "  bounding box   [0.4, 0.02, -0.01] .. [0.6, 0.18, 0.21]",
+        "  edges          12 (closed, consistently wound)",
+        "  surface        binds, if within reach of the tetrahedra ([visual])",
+    ] {
+        assert!(out.contains(line), "{line:?} missing in\n{out}");
+    }
+    // One triangle turned, one dropped, a degenerate one added.
+    let bad = OCTAHEDRON
+        .replace("f 1 4 5\n", "f 1 5 4\n")
+        .replace("f 2 6 3\n", "f 2 2 3\n");
+    dir.write("bad.obj", &bad);
+    let o = corofem(&["info", "bad.obj"], &dir.0);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("wound the same way twice"), "{out}");
+    assert!(out.contains("on one triangle only"), "{out}");
+    assert!(
+        out.contains("refused by [visual]: surface triangle 6 is degenerate"),
+        "{out}"
+    );
+    dir.write("empty.stl", "solid x\nendsolid x\n");
+    let o = corofem(&["info", "empty.stl"], &dir.0);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("empty.stl"), "{}", stderr(&o));
+}
+
+#[test]
 fn usage_errors_exit_with_2() {
     let dir = TempDir::new("usage");
     let o = corofem(&["run"], &dir.0);

@@ -178,7 +178,7 @@ pub use statics::{NewtonStats, StaticSettings};
 pub use storage::VecStorage;
 pub use storage::{ArrayStorage, Node, NodeEntry, NodeWork, SliceStorage, Storage};
 #[cfg(feature = "surface")]
-pub use surface::{surface_scratch_len, vertex_normals, BindStats, SurfaceBinding};
+pub use surface::{check_surface, surface_scratch_len, vertex_normals, BindStats, SurfaceBinding};
 
 /// The README's code examples, compiled and run as doctests (they use the
 /// tool, a `VecScene` and an embedded surface).

@@ -366,8 +366,15 @@ fn triangle_corners(positions: &[Vec3], t: usize, tri: [u32; 3]) -> Result<[Vec3
     Ok([at(tri[0])?, at(tri[1])?, at(tri[2])?])
 }
 
-/// Finite vertices; triangles with indices in range, three distinct
-/// vertices, not degenerate.
+/// Checks a triangle surface as [`Scene::bind_surface`] does, without a
+/// scene: finite vertices ([`Error::NonFiniteVertex`]), triangle indices in
+/// range ([`Error::TriangleIndexOutOfRange`]), three distinct vertices with
+/// corners not collinear ([`Error::DegenerateTriangle`]). The first problem
+/// found is the error.
+pub fn check_surface(vertices: &[Vec3], triangles: &[[u32; 3]]) -> Result<(), Error> {
+    validate_surface(vertices, triangles)
+}
+
 fn validate_surface(vertices: &[Vec3], triangles: &[[u32; 3]]) -> Result<(), Error> {
     if let Some(v) = vertices.iter().position(|p| !math::is_finite3(*p)) {
         return Err(Error::NonFiniteVertex { vertex: v as u32 });

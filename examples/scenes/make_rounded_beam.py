@@ -26,7 +26,8 @@ def main():
             c = [min(max(q[a], RADIUS), SIZE[a] - RADIUS) for a in range(3)]
             d = [q[a] - c[a] for a in range(3)]
             n = math.sqrt(sum(x * x for x in d))
-            p = [c[a] + RADIUS * d[a] / n for a in range(3)]
+            # + 0.0: no "-0.000000" in the file.
+            p = [round(c[a] + RADIUS * d[a] / n, 6) + 0.0 for a in range(3)]
             index[g] = len(vertices) + 1
             vertices.append(p)
         return index[g]

@@ -8,7 +8,6 @@
 //! and the host test `host-tests/tests/web_hash.rs` both use this module:
 //! the scene is defined once.
 
-
 // The scene is a `VecScene`: in vectors sized at run time (the body can come
 // from a file), with a grab and a load slot for every node.
 use corofem::{
