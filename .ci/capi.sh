@@ -63,59 +63,47 @@ if ! command -v arm-none-eabi-gcc >/dev/null || ! command -v qemu-system-arm >/d
     (apt-get update -qq && apt-get install -y -qq --no-install-recommends \
         gcc-arm-none-eabi libnewlib-arm-none-eabi qemu-system-arm) >/dev/null 2>&1 || true
 fi
+# m4f FEATURES NAME: the staticlib with FEATURES, the C example linked
+# against it for the Cortex-M4F as $OUT/NAME.elf, checked free of panicking
+# code (with --gc-sections, the panic machinery is only there if some
+# reachable code can panic), and run in QEMU into $OUT/NAME.txt.
+m4f() {
+    cargo rustc --release --manifest-path $MANIFEST --target thumbv7em-none-eabihf --lib \
+        --crate-type staticlib --no-default-features --features "$1"
+    arm-none-eabi-gcc -mcpu=cortex-m4 -mthumb -mfloat-abi=hard -mfpu=fpv4-sp-d16 -O2 -std=c11 \
+        -Wall -Wextra -Werror -ffp-contract=off -DCOROFEM_BARE_METAL -Icapi/include \
+        -nostartfiles -T capi/cortex-m4f/link.ld --specs=rdimon.specs \
+        capi/cortex-m4f/startup.c capi/examples/haptic_loop.c \
+        "$CARGO_TARGET_DIR/thumbv7em-none-eabihf/release/libcorofem_capi.a" -lm \
+        -Wl,--gc-sections -Wl,--no-warn-execstack -o "$OUT/$2.elf"
+    arm-none-eabi-size "$OUT/$2.elf"
+    if arm-none-eabi-nm -C "$OUT/$2.elf" | grep -E 'core::panicking|rust_begin_unwind'; then
+        echo "the Cortex-M4F image $2 links panicking code (see the symbols above)"
+        exit 1
+    fi
+    timeout 600 qemu-system-arm -machine mps2-an386 -cpu cortex-m4 -nographic -monitor none \
+        -serial none -semihosting-config enable=on,target=native -kernel "$OUT/$2.elf" \
+        | tee "$OUT/$2.txt"
+}
+# same KEY NAME: the line starting with KEY is in the host's output and the
+# same in $OUT/NAME.txt.
+same() {
+    host=$(grep "$1" "$OUT/box.txt")
+    here=$(grep "$1" "$OUT/$2.txt")
+    if [ -z "$host" ] || [ "$host" != "$here" ]; then
+        echo "Cortex-M4F $2: '$here' differs from host '$host'"
+        exit 1
+    fi
+}
 if command -v arm-none-eabi-gcc >/dev/null && command -v qemu-system-arm >/dev/null; then
-    cargo rustc --release --manifest-path $MANIFEST --target thumbv7em-none-eabihf --lib \
-        --crate-type staticlib --no-default-features --features qr,fpu-sqrt,panic-handler
-    arm-none-eabi-gcc -mcpu=cortex-m4 -mthumb -mfloat-abi=hard -mfpu=fpv4-sp-d16 -O2 -std=c11 \
-        -Wall -Wextra -Werror -ffp-contract=off -DCOROFEM_BARE_METAL -Icapi/include \
-        -nostartfiles -T capi/cortex-m4f/link.ld --specs=rdimon.specs \
-        capi/cortex-m4f/startup.c capi/examples/haptic_loop.c \
-        "$CARGO_TARGET_DIR/thumbv7em-none-eabihf/release/libcorofem_capi.a" -lm \
-        -Wl,--gc-sections -Wl,--no-warn-execstack -o "$OUT/haptic_loop.elf"
-    arm-none-eabi-size "$OUT/haptic_loop.elf"
-    # Panic-freedom, checked on the linked image: with --gc-sections, the
-    # panic machinery is only there if some reachable code can panic.
-    if arm-none-eabi-nm -C "$OUT/haptic_loop.elf" | grep -E 'core::panicking|rust_begin_unwind'; then
-        echo "the Cortex-M4F image links panicking code (see the symbols above)"
-        exit 1
-    fi
-    timeout 600 qemu-system-arm -machine mps2-an386 -cpu cortex-m4 -nographic -monitor none \
-        -serial none -semihosting-config enable=on,target=native -kernel "$OUT/haptic_loop.elf" \
-        | tee "$OUT/m4f.txt"
-    host=$(grep '^hash ' "$OUT/box.txt")
-    m4f=$(grep '^hash ' "$OUT/m4f.txt")
-    if [ "$host" != "$m4f" ]; then
-        echo "Cortex-M4F $m4f differs from host $host"
-        exit 1
-    fi
-    pass "Cortex-M4F image has no panicking code; its $m4f equals the host's"
-
-    # The same with embedded surfaces: binding and moving them link no
-    # panicking code either, and give the host's surface (printed to 1 µm).
-    cargo rustc --release --manifest-path $MANIFEST --target thumbv7em-none-eabihf --lib \
-        --crate-type staticlib --no-default-features --features qr,fpu-sqrt,panic-handler,surface
-    arm-none-eabi-gcc -mcpu=cortex-m4 -mthumb -mfloat-abi=hard -mfpu=fpv4-sp-d16 -O2 -std=c11 \
-        -Wall -Wextra -Werror -ffp-contract=off -DCOROFEM_BARE_METAL -Icapi/include \
-        -nostartfiles -T capi/cortex-m4f/link.ld --specs=rdimon.specs \
-        capi/cortex-m4f/startup.c capi/examples/haptic_loop.c \
-        "$CARGO_TARGET_DIR/thumbv7em-none-eabihf/release/libcorofem_capi.a" -lm \
-        -Wl,--gc-sections -Wl,--no-warn-execstack -o "$OUT/haptic_loop_surface.elf"
-    arm-none-eabi-size "$OUT/haptic_loop_surface.elf"
-    if arm-none-eabi-nm -C "$OUT/haptic_loop_surface.elf" | grep -E 'core::panicking|rust_begin_unwind'; then
-        echo "the Cortex-M4F image with surfaces links panicking code (see the symbols above)"
-        exit 1
-    fi
-    timeout 600 qemu-system-arm -machine mps2-an386 -cpu cortex-m4 -nographic -monitor none \
-        -serial none -semihosting-config enable=on,target=native \
-        -kernel "$OUT/haptic_loop_surface.elf" | tee "$OUT/m4f_surface.txt"
-    for key in '^hash ' '^surface tip ring centre '; do
-        host=$(grep "$key" "$OUT/box.txt")
-        m4f=$(grep "$key" "$OUT/m4f_surface.txt")
-        if [ -z "$host" ] || [ "$host" != "$m4f" ]; then
-            echo "Cortex-M4F with surfaces: '$m4f' differs from host '$host'"
-            exit 1
-        fi
-    done
+    m4f qr,fpu-sqrt,panic-handler haptic_loop
+    same '^hash ' haptic_loop
+    pass "Cortex-M4F image has no panicking code; its $here equals the host's"
+    # With embedded surfaces: binding and moving them link no panicking
+    # code either, and give the host's surface (printed to 1 µm).
+    m4f qr,fpu-sqrt,panic-handler,surface haptic_loop_surface
+    same '^hash ' haptic_loop_surface
+    same '^surface tip ring centre ' haptic_loop_surface
     pass "Cortex-M4F image with surfaces has no panicking code; its surface (to 1 µm) and hash equal the host's"
 else
     # A check that cannot run is a failure, not a pass.

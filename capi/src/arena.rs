@@ -264,26 +264,58 @@ pub unsafe fn init(
 /// other readable memory, which is then refused), and no other call uses
 /// the same scene at the same time.
 pub unsafe fn scene<'a>(h: *mut SceneHandle) -> Result<&'a mut SceneHandle, Status> {
-    if h.is_null() {
-        return Err(Status::NullPointer);
-    }
-    if h as usize % align_of::<SceneHandle>() != 0 {
-        return Err(Status::InvalidHandle);
-    }
-    // SAFETY: aligned, and readable by the caller's contract. Only the two
-    // plain integer fields are read before the magic number vouches for the rest.
-    let (magic, this) = unsafe {
-        (
-            ptr::addr_of!((*h).magic).read(),
-            ptr::addr_of!((*h).this).read(),
-        )
-    };
-    if magic != MAGIC || this != h as usize {
-        return Err(Status::InvalidHandle);
-    }
+    // SAFETY: the caller's contract.
+    unsafe { check_stamp(h.cast_const(), MAGIC)? };
     // SAFETY: a live handle written by `init` at this very address; the
     // caller guarantees exclusive use for the duration of the call.
     Ok(unsafe { &mut *h })
+}
+
+/// A handle that stamps itself: a magic number and the address it was made
+/// at, read before anything else of it is trusted, so that a pointer to
+/// anything else, or to a copy of a handle, is refused.
+pub trait Stamped {
+    /// The handle's magic number and address, read alone.
+    ///
+    /// # Safety
+    ///
+    /// `h` is aligned and points to `size_of::<Self>()` readable bytes.
+    unsafe fn stamp(h: *const Self) -> (u32, usize);
+}
+
+/// Checks that `h` is a live handle stamped `magic`: not null
+/// (`NullPointer`), aligned and stamped at its own address
+/// (`InvalidHandle` otherwise).
+///
+/// # Safety
+///
+/// `h` is null or points to at least `size_of::<T>()` readable bytes.
+pub unsafe fn check_stamp<T: Stamped>(h: *const T, magic: u32) -> Result<(), Status> {
+    if h.is_null() {
+        return Err(Status::NullPointer);
+    }
+    if h as usize % align_of::<T>() != 0 {
+        return Err(Status::InvalidHandle);
+    }
+    // SAFETY: aligned, and readable by the caller's contract.
+    let (m, this) = unsafe { T::stamp(h) };
+    if m != magic || this != h as usize {
+        return Err(Status::InvalidHandle);
+    }
+    Ok(())
+}
+
+impl Stamped for SceneHandle {
+    unsafe fn stamp(h: *const Self) -> (u32, usize) {
+        // SAFETY: the caller's contract; only the two plain integer fields
+        // are read.
+        unsafe {
+            (
+                ptr::addr_of!((*h).magic).read(),
+                ptr::addr_of!((*h).this).read(),
+            )
+        }
+    }
 }
 
 impl SceneHandle {

@@ -29,7 +29,7 @@
 #[cfg(feature = "surface")]
 use core::alloc::Layout;
 #[cfg(feature = "surface")]
-use core::mem::{align_of, size_of};
+use core::mem::size_of;
 #[cfg(feature = "surface")]
 use core::ptr;
 
@@ -208,26 +208,25 @@ pub struct Surface<'a> {
 /// or any other readable memory, which is then refused).
 #[cfg(feature = "surface")]
 pub unsafe fn surface<'a>(h: *const SurfaceHandle) -> Result<Surface<'a>, Status> {
-    if h.is_null() {
-        return Err(Status::NullPointer);
-    }
-    if h as usize % align_of::<SurfaceHandle>() != 0 {
-        return Err(Status::InvalidHandle);
-    }
-    // SAFETY: aligned, and readable by the caller's contract. Only the two
-    // plain integer fields are read before the magic number vouches for the rest.
-    let (magic, this) = unsafe {
-        (
-            ptr::addr_of!((*h).magic).read(),
-            ptr::addr_of!((*h).this).read(),
-        )
-    };
-    if magic != MAGIC || this != h as usize {
-        return Err(Status::InvalidHandle);
-    }
+    // SAFETY: the caller's contract.
+    unsafe { crate::arena::check_stamp(h, MAGIC)? };
     // SAFETY: a live handle written by `finish` at this very address.
     let head = unsafe { &*h };
     Ok(Surface { head, ptr: h })
+}
+
+#[cfg(feature = "surface")]
+impl crate::arena::Stamped for SurfaceHandle {
+    unsafe fn stamp(h: *const Self) -> (u32, usize) {
+        // SAFETY: the caller's contract; only the two plain integer fields
+        // are read.
+        unsafe {
+            (
+                ptr::addr_of!((*h).magic).read(),
+                ptr::addr_of!((*h).this).read(),
+            )
+        }
+    }
 }
 
 #[cfg(feature = "surface")]

@@ -5,6 +5,9 @@ use std::ptr::{null, null_mut};
 
 use corofem_capi::*;
 
+#[cfg(feature = "surface")]
+mod common;
+
 const NODES: [[f32; 3]; 5] = [
     [0.0, 0.0, 0.0],
     [1.0, 0.0, 0.0],
@@ -529,7 +532,7 @@ fn surfaces_are_unsupported_without_the_feature() {
 mod surface {
     use super::*;
 
-    use std::path::PathBuf;
+    use crate::common::shared_mesh;
 
     /// A small tetrahedron inside `TETS[0]`, outward triangles.
     const SKIN: [[f32; 3]; 4] = [
@@ -743,23 +746,6 @@ mod surface {
                     self.normals_len,
                 )
             }
-        }
-    }
-
-    fn shared_mesh(name: &str) -> Option<PathBuf> {
-        let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-            .join("../../shared/meshes")
-            .join(name);
-        if p.is_file() {
-            Some(p)
-        } else if std::env::var_os("COROFEM_REQUIRE_MESHES").is_some() {
-            panic!(
-                "COROFEM_REQUIRE_MESHES is set but {} is missing",
-                p.display()
-            );
-        } else {
-            eprintln!("SKIPPED: ../shared/meshes/{name} not found");
-            None
         }
     }
 

@@ -9,6 +9,8 @@ use std::process::Command;
 use corofem_capi::{Material, Settings, Stats, Status};
 use corofem_core::{BoxMesh, BuildOptions};
 
+mod common;
+
 /// One scene of the C example, exactly as it builds it.
 struct Def {
     nodes: Vec<[f32; 3]>,
@@ -62,19 +64,7 @@ fn box_def() -> Def {
 }
 
 fn liver_path() -> Option<PathBuf> {
-    let p =
-        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/meshes/sofa_liver.tetmesh");
-    if p.is_file() {
-        Some(p)
-    } else if std::env::var_os("COROFEM_REQUIRE_MESHES").is_some() {
-        panic!(
-            "COROFEM_REQUIRE_MESHES is set but {} is missing",
-            p.display()
-        );
-    } else {
-        eprintln!("SKIPPED: ../shared/meshes/sofa_liver.tetmesh not found");
-        None
-    }
+    common::shared_mesh("sofa_liver.tetmesh")
 }
 
 fn liver_def(path: &std::path::Path) -> Def {

@@ -130,17 +130,7 @@ pub fn read_mesh(path: &Path) -> Result<Mesh, MeshError> {
 fn parse_as(format: MeshFormat, bytes: &[u8], name: &str) -> Result<Mesh, MeshError> {
     match format {
         MeshFormat::Tetmesh => {
-            let text = std::str::from_utf8(bytes).map_err(|e| MeshError::Malformed {
-                file: name.to_owned(),
-                line: Some(
-                    1 + bytes[..e.valid_up_to()]
-                        .iter()
-                        .filter(|&&b| b == b'\n')
-                        .count(),
-                ),
-                expected: "UTF-8 text".to_owned(),
-                found: "invalid bytes".to_owned(),
-            })?;
+            let text = text::utf8(bytes, name)?;
             parse_tetmesh(text, name)
         }
         MeshFormat::Gmsh => parse_msh(bytes, name),

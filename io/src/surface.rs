@@ -78,17 +78,7 @@ fn parse_surface_as(format: SurfaceFormat, bytes: &[u8], name: &str) -> Result<S
 
 /// Reads Wavefront OBJ text (see the module docs for what is kept).
 pub fn parse_obj(bytes: &[u8], name: &str) -> Result<Surface, MeshError> {
-    let text = std::str::from_utf8(bytes).map_err(|e| MeshError::Malformed {
-        file: name.to_owned(),
-        line: Some(
-            1 + bytes[..e.valid_up_to()]
-                .iter()
-                .filter(|&&b| b == b'\n')
-                .count(),
-        ),
-        expected: "UTF-8 text".to_owned(),
-        found: "invalid bytes".to_owned(),
-    })?;
+    let text = crate::text::utf8(bytes, name)?;
     let count = text.lines().filter(|l| first_word(l) == "v").count();
     let count = check_count(name, None, "vertex", count as u64)?;
     if count == 0 {

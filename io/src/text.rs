@@ -133,3 +133,19 @@ pub(crate) fn plural(n: usize, word: &str) -> String {
         format!("{n} {word}s")
     }
 }
+
+/// `bytes` as UTF-8 text, or the error that names the file and the line of
+/// the first invalid byte.
+pub(crate) fn utf8<'a>(bytes: &'a [u8], file: &str) -> Result<&'a str, MeshError> {
+    std::str::from_utf8(bytes).map_err(|e| MeshError::Malformed {
+        file: file.to_owned(),
+        line: Some(
+            1 + bytes[..e.valid_up_to()]
+                .iter()
+                .filter(|&&b| b == b'\n')
+                .count(),
+        ),
+        expected: "UTF-8 text".to_owned(),
+        found: "invalid bytes".to_owned(),
+    })
+}
