@@ -96,8 +96,19 @@ pub fn parse_obj(bytes: &[u8], name: &str) -> Result<Surface, MeshError> {
     }
     buf.push('\n');
     for line in text.lines() {
-        if !matches!(first_word(line), "o" | "g" | "usemtl" | "mtllib") {
-            buf.push_str(line);
+        match first_word(line) {
+            "o" | "g" | "usemtl" | "mtllib" | "vt" | "vn" | "vp" => {}
+            // Faces and lines keep their vertex indices only: the surface
+            // needs no texture coordinates or normals, and tobj's handling
+            // of their indices overflows on some invalid ones.
+            w @ ("f" | "l") => {
+                buf.push_str(w);
+                for token in line.split_whitespace().skip(1) {
+                    buf.push(' ');
+                    buf.push_str(token.split('/').next().unwrap_or(""));
+                }
+            }
+            _ => buf.push_str(line),
         }
         buf.push('\n');
     }
@@ -289,6 +300,20 @@ l 1 2
             s.triangles,
             vec![[0, 1, 2], [0, 2, 3], [5, 6, 7], [5, 7, 8], [5, 8, 9]]
         );
+    }
+
+    #[test]
+    fn texture_and_normal_indices_are_ignored() {
+        // Found by fuzzing: a normal index of −4 with no normals made tobj
+        // overflow; `v//vn` and `v/vt/vn` faces keep their vertices.
+        let s = parse_obj(
+            b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1//-4 2//-4 3//9\nf 1/2/3 2/1/1 4/7/7\n",
+            "t.obj",
+        )
+        .unwrap();
+        assert_eq!(s.triangles, vec![[0, 1, 2], [0, 1, 3]]);
+        let crash = include_bytes!("../../fuzz/seeds/surface/tobj_normal_index");
+        assert!(parse_surface(&crash[2..], "crash.obj").is_err());
     }
 
     #[test]
