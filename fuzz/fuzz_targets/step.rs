@@ -8,8 +8,8 @@
 mod common;
 
 use arbitrary::{Result, Unstructured};
-use corofem::{BoxMesh, BuildOptions, Error, StaticSettings};
 use corofem::VecScene;
+use corofem::{BoxMesh, BuildOptions, Error, StaticSettings};
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {

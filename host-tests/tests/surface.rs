@@ -218,6 +218,7 @@ fn bindings_do_not_depend_on_the_vertex_order() {
     assert!(stats.inside > 0 && stats.outside > 0, "{stats:?}");
     let n = surface.vertices.len();
     let perm: Vec<usize> = (0..n).map(|i| (i * 7919 + 13) % n).collect();
+    // i ↦ (7919 i + 13) mod n is a permutation: 7919 is prime.
     assert!(n % 7919 != 0);
     let shuffled: Vec<[f32; 3]> = perm.iter().map(|&i| surface.vertices[i]).collect();
     let (b2, stats2) = bind_with(&scene, &shuffled, &[], 0.5 * scene.mean_edge_length());
@@ -241,6 +242,7 @@ fn outside_vertices_extrapolate_from_the_nearest_tetrahedron() {
     // A vertex's distance to its tetrahedron is the reported one: the
     // tetrahedron's affine map gives back the rest position, and some
     // weight is negative exactly for the outside ones.
+    // Below −1e-6: negative beyond the f32 rounding of weights of size 1.
     let outside = b
         .iter()
         .filter(|bi| bi.weights().iter().any(|&w| w < -1e-6))
