@@ -160,6 +160,8 @@ impl From<StepError> for Failure {
         match e {
             StepError::NonFiniteInput => Status::InvalidArgument.into(),
             StepError::Diverged => Status::Diverged.into(),
+            StepError::TooManyProbes => Status::Capacity.into(),
+            StepError::ProbeInsideBody { .. } => Status::InvalidArgument.into(),
         }
     }
 }

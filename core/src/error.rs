@@ -307,6 +307,12 @@ pub enum Parameter {
     SurfaceReach,
     /// The scratch of `Scene::bind_surface`.
     SurfaceScratch,
+    /// The radius of a `Probe`.
+    ProbeRadius,
+    /// The half length of a capsule `Probe`.
+    ProbeHalfLength,
+    /// The position or axis of a `Probe`.
+    ProbePose,
     /// The output slice of `Scene::update_surface` or `vertex_normals`.
     SurfaceOut,
 }
@@ -356,6 +362,13 @@ impl fmt::Display for Parameter {
                 "scratch of `bind_surface`: it needs `surface_scratch_len(vertices)` entries"
             }
             Parameter::SurfaceOut => "surface output: it needs one entry per vertex",
+            Parameter::ProbeRadius => "probe radius: it must be finite and > 0 m",
+            Parameter::ProbeHalfLength => {
+                "capsule half length: it must be ≥ 0 m, finite with the radius added"
+            }
+            Parameter::ProbePose => {
+                "probe pose: the position must be finite and the axis finite and non-zero"
+            }
             Parameter::EnergyGuard => {
                 "`energy_guard`: this build has no energy guard (cargo feature `energy-guard`)"
             }
@@ -373,6 +386,20 @@ pub enum StepError {
     /// (for instance a load or a tool spring beyond what f32 holds for this
     /// body); the step was not applied.
     Diverged,
+    /// More probes than [`MAX_PROBES`](crate::MAX_PROBES) were given to
+    /// `Scene::step_with_probes`.
+    TooManyProbes,
+    /// A probe's first step (after [`Probe::sphere`](crate::Probe::sphere),
+    /// [`Probe::capsule`](crate::Probe::capsule) or
+    /// [`Probe::place`](crate::Probe::place)) starts with a boundary node of
+    /// the body inside it: move the probe out (for a device, start its
+    /// proxy outside the body).
+    ProbeInsideBody {
+        /// The probe's index in the slice.
+        probe: u32,
+        /// A boundary node inside it.
+        node: u32,
+    },
 }
 
 impl fmt::Display for StepError {
@@ -381,6 +408,13 @@ impl fmt::Display for StepError {
             StepError::NonFiniteInput => write!(f, "a step input is NaN or infinite"),
             StepError::Diverged => {
                 write!(f, "the step produced non-finite values and was not applied")
+            }
+            StepError::TooManyProbes => write!(f, "more probes than a step takes"),
+            StepError::ProbeInsideBody { probe, node } => {
+                write!(
+                    f,
+                    "probe {probe} starts inside the body (node {node} is inside it)"
+                )
             }
         }
     }

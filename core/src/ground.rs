@@ -63,16 +63,51 @@ impl Plane {
         let offset = self.offset / crate::math::sqrt(len2);
         offset.is_finite().then_some(Plane { normal: n, offset })
     }
+}
 
-    /// Signed distance of `x` from the plane (m), positive outside.
+/// The half-space a node in contact must end a step in, `normal · x ≥
+/// offset`, and how far its plane moves out along the normal over the step
+/// (`lift`, m): a node's distance from the plane at the step's start is its
+/// distance at the end plus `lift`. The ground's plane does not move; a
+/// probe's does ([`crate::Probe`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Contact {
+    /// Unit normal, out of the obstacle.
+    pub(crate) normal: Vec3,
+    pub(crate) offset: f32,
+    pub(crate) lift: f32,
+}
+
+impl Contact {
+    /// The ground's plane, which does not move.
+    #[inline(always)]
+    pub(crate) fn still(g: Plane) -> Self {
+        Self {
+            normal: g.normal,
+            offset: g.offset,
+            lift: 0.0,
+        }
+    }
+
+    /// Signed distance of `x` from the plane at the step's end (m),
+    /// positive outside.
     #[inline]
     #[must_use]
     pub(crate) fn distance(&self, x: Vec3) -> f32 {
         dot(self.normal, x) - self.offset
     }
 
+    /// Whether a node with velocity `v` at the end distance `dist` is held:
+    /// it touches or is inside the plane and does not move away from it
+    /// faster than the plane moves (`lift / h`).
+    #[inline]
+    #[must_use]
+    pub(crate) fn holds(&self, dist: f32, v: Vec3, h: f32) -> bool {
+        dist <= 0.0 && dot(self.normal, v) <= self.lift / h
+    }
+
     /// The velocity change to prescribe along the normal for a held node at
-    /// signed distance `dist` with velocity `v`, so that it ends a step of
+    /// end distance `dist` with velocity `v`, so that it ends a step of
     /// length `h` on the plane: `n·(v + Δv) = −dist / h`.
     #[inline]
     #[must_use]
@@ -94,31 +129,34 @@ impl Plane {
         axpy(self.filter(z), along, self.normal)
     }
 
-    /// Stops a node that ended a step below the plane: removes its inward
-    /// normal velocity and keeps its position, which the next step's held
-    /// rule takes back onto the plane. Returns the new velocity.
+    /// Stops a node that ended a step inside the plane: removes its normal
+    /// velocity into the obstacle, relative to the plane's (`lift / h`),
+    /// and keeps its position, which the next step's held rule takes back
+    /// onto the plane. Returns the new velocity.
     #[inline]
     #[must_use]
-    pub(crate) fn stop(&self, x: Vec3, v: Vec3) -> Vec3 {
-        let vn = dot(self.normal, v);
+    pub(crate) fn stop(&self, x: Vec3, v: Vec3, h: f32) -> Vec3 {
+        let vn = dot(self.normal, v) - self.lift / h;
         if self.distance(x) >= 0.0 || vn >= 0.0 {
             return v;
         }
         axpy(v, -vn, self.normal)
     }
 
-    /// Whether a held node at `x`, at signed distance `dist`, is below the
-    /// plane by more than the round-off of `dist` itself (4 ε times the
-    /// magnitudes it is summed from): a node the step must push out, not
-    /// one that rests on the plane.
+    /// The distance below the plane at the step's start that a held node at
+    /// `x` must be pushed out by, or `None` for a node within the round-off
+    /// of its distance (4 ε times the magnitudes it is summed from) of the
+    /// plane or outside it: one that rests on the plane, or that the plane
+    /// reaches only by moving during the step.
     #[inline]
     #[must_use]
-    pub(crate) fn pushes(&self, x: Vec3, dist: f32) -> bool {
+    pub(crate) fn push(&self, x: Vec3) -> Option<f32> {
+        let dist = self.distance(x) + self.lift;
         let size = self.normal[0].abs() * x[0].abs()
             + self.normal[1].abs() * x[1].abs()
             + self.normal[2].abs() * x[2].abs()
-            + self.offset.abs();
-        dist < -4.0 * f32::EPSILON * size
+            + (self.offset - self.lift).abs();
+        (dist < -4.0 * f32::EPSILON * size).then_some(dist)
     }
 }
 
@@ -173,24 +211,43 @@ mod tests {
 
     #[test]
     fn a_node_below_keeps_its_position_and_loses_its_inward_velocity() {
-        let p = Plane::Z_UP;
-        assert_eq!(p.stop([0.0, 0.0, -0.5], [1.0, 0.0, -2.0]), [1.0, 0.0, 0.0]);
+        let p = Contact::still(Plane::Z_UP);
+        let h = 0.01;
+        assert_eq!(
+            p.stop([0.0, 0.0, -0.5], [1.0, 0.0, -2.0], h),
+            [1.0, 0.0, 0.0]
+        );
         // Moving out already, or above the plane: unchanged.
-        assert_eq!(p.stop([0.0, 0.0, -0.5], [1.0, 0.0, 2.0]), [1.0, 0.0, 2.0]);
-        assert_eq!(p.stop([0.0, 0.0, 0.5], [1.0, 0.0, -2.0]), [1.0, 0.0, -2.0]);
+        assert_eq!(
+            p.stop([0.0, 0.0, -0.5], [1.0, 0.0, 2.0], h),
+            [1.0, 0.0, 2.0]
+        );
+        assert_eq!(
+            p.stop([0.0, 0.0, 0.5], [1.0, 0.0, -2.0], h),
+            [1.0, 0.0, -2.0]
+        );
+        // A plane moving out at 1 m/s gives a node inside it its speed.
+        let moving = Contact { lift: h, ..p };
+        assert_eq!(
+            moving.stop([0.0, 0.0, -0.5], [1.0, 0.0, 0.0], h),
+            [1.0, 0.0, 1.0]
+        );
     }
 
     #[test]
     fn only_a_depth_beyond_round_off_is_pushed_out() {
-        let p = Plane {
+        let p = Contact::still(Plane {
             normal: [0.0, 0.0, 1.0],
             offset: 1.0,
-        };
+        });
         // One ulp below a plane at z = 1 is round-off; a micrometre is not.
-        let x = [0.0, 0.0, 1.0 - f32::EPSILON];
-        assert!(!p.pushes(x, p.distance(x)));
-        let x = [0.0, 0.0, 1.0 - 1e-6];
-        assert!(p.pushes(x, p.distance(x)));
-        assert!(!p.pushes([0.0, 0.0, 1.0], 0.0));
+        assert!(p.push([0.0, 0.0, 1.0 - f32::EPSILON]).is_none());
+        assert!(p.push([0.0, 0.0, 1.0 - 1e-6]).is_some());
+        assert!(p.push([0.0, 0.0, 1.0]).is_none());
+        // A plane that moves into a node during the step does not push it
+        // out of where it started.
+        let moving = Contact { lift: 1e-3, ..p };
+        assert!(moving.push([0.0, 0.0, 1.0 - 1e-6]).is_none());
+        assert!(moving.push([0.0, 0.0, 0.99]).is_some());
     }
 }

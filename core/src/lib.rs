@@ -144,6 +144,8 @@ mod fpu_product;
 mod ground;
 #[cfg(feature = "nalgebra")]
 pub mod na;
+#[cfg(feature = "probe")]
+mod probe;
 #[cfg(feature = "statics")]
 mod statics;
 #[cfg(feature = "surface")]
@@ -168,6 +170,8 @@ pub use precond::{
     aggregates_for, coarse_blocks_for, Aggregate, CoarseBlock, NodeBlock, MAX_AGGREGATES,
     NODES_PER_AGGREGATE,
 };
+#[cfg(feature = "probe")]
+pub use probe::{Probe, MAX_PROBES};
 #[cfg(feature = "alloc")]
 pub use scene::VecScene;
 pub use scene::{BuildOptions, Scene, StaticScene};

@@ -295,6 +295,9 @@ pub(crate) struct View<'a> {
     /// every aggregate and coarse slot of the storage.
     #[cfg(feature = "two-level")]
     pub(crate) pre: crate::precond::Parts<'a>,
+    /// The probes of `step_with_probes` (none for `step`).
+    #[cfg(feature = "probe")]
+    pub(crate) probes: &'a mut [crate::Probe],
 }
 
 /// Most nodes a scene holds: what the elements' `u16` node indices address.
@@ -349,6 +352,8 @@ impl<S: Storage> Scene<S> {
                 aggs: p.aggs,
                 coarse: p.coarse,
             },
+            #[cfg(feature = "probe")]
+            probes: &mut [],
         }
     }
 
@@ -523,6 +528,8 @@ impl<S: Storage> Scene<S> {
                 }
             }
         }
+        #[cfg(feature = "probe")]
+        mark_boundary(nodes, work, tets, positions, options);
         self.hdr.n_nodes = positions.len();
         self.hdr.n_elems = tets.len();
         self.hdr.poisson = material.poisson;
@@ -669,6 +676,15 @@ impl<S: Storage> Scene<S> {
     #[must_use]
     pub fn is_fixed(&self, i: u32) -> bool {
         self.node(i).is_some_and(|n| n.flags & FIXED != 0)
+    }
+
+    /// Whether node `i` is on the mesh's boundary (in a face of only one
+    /// tetrahedron): the nodes that probes touch. Found at `build`.
+    #[cfg(feature = "probe")]
+    #[must_use]
+    pub fn on_boundary(&self, i: u32) -> bool {
+        self.node(i)
+            .is_some_and(|n| n.flags & crate::storage::BOUNDARY != 0)
     }
 
     /// Current positions of all nodes, in order (m).
@@ -982,6 +998,44 @@ impl<S: Storage> Scene<S> {
         crate::step::step(self.view())
     }
 
+    /// [`Scene::step`] with rigid probes in contact with the body's
+    /// surface (feature `probe`): each probe moves from where the last step
+    /// left it to its pose ([`Probe::move_to`](crate::Probe::move_to)), the
+    /// boundary nodes it reaches are held on it within the implicit solve,
+    /// and each probe gets the force the body exerted on it
+    /// ([`Probe::force`](crate::Probe::force)). `StepStats::contacts`
+    /// counts the nodes held by probes and the ground.
+    ///
+    /// Refused with [`StepError::TooManyProbes`] for more than
+    /// [`MAX_PROBES`](crate::MAX_PROBES), and with
+    /// [`StepError::ProbeInsideBody`] for a probe whose first step starts
+    /// with a boundary node inside it. On any error the scene and the
+    /// probes are unchanged.
+    #[cfg(feature = "probe")]
+    pub fn step_with_probes(
+        &mut self,
+        probes: &mut [crate::Probe],
+    ) -> Result<StepStats, StepError> {
+        if probes.len() > crate::MAX_PROBES {
+            return Err(StepError::TooManyProbes);
+        }
+        for (k, p) in probes.iter().enumerate().filter(|(_, p)| p.fresh) {
+            let inside = self.nodes().iter().position(|n| {
+                n.flags & crate::storage::BOUNDARY != 0 && p.starts_around(n.position())
+            });
+            if let Some(node) = inside {
+                // Both below `MAX_NODES` and `MAX_PROBES`, 2¹⁶.
+                return Err(StepError::ProbeInsideBody {
+                    probe: k as u32,
+                    node: node as u32,
+                });
+            }
+        }
+        let mut view = self.view();
+        view.probes = probes;
+        crate::step::step(view)
+    }
+
     /// The instruction set [`Scene::step`] runs with.
     #[must_use]
     pub fn instruction_set(&self) -> InstructionSet {
@@ -1023,6 +1077,62 @@ impl<S: Storage> Scene<S> {
 }
 
 /// The validated, positively oriented node indices of tetrahedron `e`.
+/// Flags the nodes on the mesh's boundary (`BOUNDARY`): those in a face
+/// that only one tetrahedron has. Without allocating, in one pass: each
+/// tetrahedron adds, to each of its nodes, a hash of the three faces
+/// through it, oriented outwards, and the hash changes sign with the
+/// orientation. A face two tetrahedra share is oriented oppositely by them
+/// (both are positive), so an interior node's sum is exactly zero in
+/// wrapping integer arithmetic; a boundary face's hash is left over, and a
+/// boundary node's sum is zero only by a 2⁻⁶⁴ accident. The sums run in the
+/// solver scratch (`x`'s bits), which is cleared afterwards.
+#[cfg(feature = "probe")]
+fn mark_boundary(
+    nodes: &mut [Node],
+    work: &mut [NodeWork],
+    tets: &[[u32; 4]],
+    positions: &[Vec3],
+    options: BuildOptions,
+) {
+    fn mix(mut z: u64) -> u64 {
+        // SplitMix64's finaliser.
+        z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+    // Antisymmetric in (a, b), so that a face's sum over its three edges
+    // is invariant under rotation and changes sign when it is reversed.
+    let edge = |a: u32, b: u32| {
+        let (a, b) = (u64::from(a), u64::from(b));
+        mix(a)
+            .wrapping_mul(mix(b ^ 0xA5A5_0000_0000))
+            .wrapping_sub(mix(b).wrapping_mul(mix(a ^ 0xA5A5_0000_0000)))
+    };
+    let get = |w: &NodeWork| u64::from(w.x[0].to_bits()) | (u64::from(w.x[1].to_bits()) << 32);
+    for (e, tet) in tets.iter().enumerate() {
+        // Validated by `build`: `oriented` cannot fail here.
+        let t = oriented(e, tet, positions, options).unwrap_or([0; 4]);
+        for [a, b, c] in [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]] {
+            let (a, b, c) = (t[a], t[b], t[c]);
+            let face = edge(a, b).wrapping_add(edge(b, c)).wrapping_add(edge(c, a));
+            for i in [a, b, c] {
+                if let Some(w) = work.get_mut(i as usize) {
+                    let sum = get(w).wrapping_add(face);
+                    w.x[0] = f32::from_bits(sum as u32);
+                    w.x[1] = f32::from_bits((sum >> 32) as u32);
+                }
+            }
+        }
+    }
+    for (n, w) in nodes.iter_mut().zip(work.iter_mut()) {
+        if get(w) != 0 {
+            n.flags |= crate::storage::BOUNDARY;
+        }
+        *w = NodeWork::EMPTY;
+    }
+}
+
 fn oriented(
     e: usize,
     tet: &[u32; 4],

@@ -259,11 +259,19 @@ pub struct StepStats {
     pub cg_residual: f32,
     /// Elements with negative current volume, at the start of the step.
     pub inverted: u32,
-    /// Nodes held by the ground during the step.
+    /// Nodes held by the ground or a probe during the step.
     pub contacts: u32,
     /// Force the body exerts on the tool at the end of the step (N): what a
     /// haptic device renders. Zero without a tool.
     pub tool_force: Vec3,
+    /// Force that the supports exert on the body during the step (N): the
+    /// fixed nodes' constraint forces and the ground's (its held nodes'
+    /// contact forces, and the impulses that stop landing nodes), the
+    /// impulse over the step's length. It is what a force plate under the
+    /// body reads, with the sign of the force on the body: a body resting
+    /// in equilibrium has `support_force = −(m g + loads + probe forces on
+    /// it)`. Probes' forces are not in it ([`crate::Probe::force`]).
+    pub support_force: Vec3,
     /// Elastic energy of the body at the start of the step (J), summed in
     /// element order by the force pass that computes the forces anyway (no
     /// extra pass over the elements), with the feature `diagnostics`.

@@ -19,7 +19,11 @@
 
 use crate::backend::Backend;
 use crate::cg;
-use crate::math::{add, axpy, cross, dot, finite_probe, is_finite3, scale, solve3, sub, Vec3};
+#[cfg(feature = "ground")]
+use crate::ground::Contact;
+#[cfg(feature = "ground")]
+use crate::math::is_finite3;
+use crate::math::{add, axpy, cross, dot, finite_probe, scale, solve3, sub, Vec3};
 use crate::pass;
 #[cfg(target_arch = "x86_64")]
 use crate::scene::IsaChoice;
@@ -27,13 +31,15 @@ use crate::scene::View;
 use crate::settings::StepStats;
 #[cfg(any(feature = "tool", feature = "loads"))]
 use crate::storage::Entries;
+#[cfg(feature = "probe")]
+use crate::storage::BOUNDARY;
 #[cfg(feature = "tool")]
 use crate::storage::GRABBED;
 #[cfg(feature = "loads")]
 use crate::storage::LOADED;
 use crate::storage::{Node, NodeWork, FIXED};
 #[cfg(feature = "ground")]
-use crate::storage::{CONTACT, RELEASED};
+use crate::storage::{CONTACT, ON_GROUND, RELEASED};
 #[cfg(feature = "two-level")]
 use crate::Preconditioner;
 use crate::StepError;
@@ -81,6 +87,8 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
         loads,
         #[cfg(feature = "two-level")]
         mut pre,
+        #[cfg(feature = "probe")]
+        probes,
     } = v;
     let s = hdr.settings;
     let per_young = hdr.per_young();
@@ -91,6 +99,24 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
     let tool = hdr.tool;
     #[cfg(feature = "ground")]
     let ground = hdr.ground;
+    #[cfg(feature = "probe")]
+    for p in probes.iter_mut() {
+        p.next_force = [0.0; 3];
+        p.next_contacts = 0;
+    }
+    #[cfg(feature = "probe")]
+    let has_probes = !probes.is_empty();
+    #[cfg(all(feature = "ground", not(feature = "probe")))]
+    let has_probes = false;
+    // Whether anything can hold a node: the ground or a probe.
+    #[cfg(feature = "ground")]
+    let obstacles_any = ground.is_some() || has_probes;
+    #[cfg(feature = "ground")]
+    let obstacles = Obstacles::new(
+        ground,
+        #[cfg(feature = "probe")]
+        probes,
+    );
 
     // The node and work slices cut to one length, so that a node index
     // checked against one is known to be in range of the other: the force
@@ -120,9 +146,12 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
     };
     #[allow(unused_mut)] // only the ground counts held nodes
     let mut held = 0u32;
-    // Held nodes below the plane beyond round-off, which the step pushes out.
+    // Held nodes below their plane beyond round-off, which the step pushes
+    // out, and the nodes the ground holds (the others' are probes').
     #[cfg(feature = "ground")]
     let mut pushes = 0u32;
+    #[cfg(feature = "ground")]
+    let mut held_ground = 0u32;
     #[allow(unused_mut)] // only the ground and the tool set it
     let mut isolated = !any_fixed;
     // The grabbed nodes hold the body (a grab lists at least one node).
@@ -130,20 +159,24 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
     if tool.active() {
         isolated = false;
     }
-    // The ground's held nodes: a pass of its own, before the guess, which
-    // depends on whether any node is held.
+    // The held nodes: a pass of its own, before the guess, which depends
+    // on whether any node is held.
     #[cfg(feature = "ground")]
-    if let Some(g) = ground {
+    if obstacles_any {
         for n in nodes.iter_mut() {
+            // What held the node last step (not released, or it is skipped).
+            let was = (n.flags & CONTACT != 0).then_some(n.contact);
             n.flags &= !CONTACT;
-            if n.flags & FIXED != 0 {
+            if n.flags & (FIXED | RELEASED) != 0 {
                 continue;
             }
-            let dist = g.distance(n.position());
-            if n.flags & RELEASED == 0 && dist <= 0.0 && dot(g.normal, n.v) <= 0.0 {
+            let x = n.position();
+            if let Some((id, c)) = obstacles.deepest(n, x, h, was) {
                 n.flags |= CONTACT;
+                n.contact = id;
                 held += 1;
-                pushes += u32::from(g.pushes(n.position(), dist));
+                held_ground += u32::from(id == ON_GROUND);
+                pushes += u32::from(c.push(x).is_some());
                 isolated = false;
             }
         }
@@ -159,14 +192,15 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
     // the nodes do not move until the step is applied.)
     #[cfg(feature = "ground")]
     let resting = match ground {
-        Some(_) if held > 0 && !any_fixed => Rigid::new(nodes, true),
+        Some(_) if held_ground > 0 && !any_fixed => Rigid::new(nodes, true),
         _ => None,
     };
     #[cfg(feature = "ground")]
     let carried = match (ground, &resting) {
         (Some(g), Some(body)) => {
             let mut fit = PlaneFit::new(g.normal, body.c);
-            for n in nodes.iter().filter(|n| n.flags & CONTACT != 0) {
+            let g = Contact::still(g);
+            for n in nodes.iter().filter(|n| on_ground(n)) {
                 let dv = g.held_dv(g.distance(n.position()), n.v, h);
                 fit.add(n.position(), n.mass, dv - dot(g.normal, fall));
             }
@@ -219,9 +253,10 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
     for (n, w) in nodes.iter_mut().zip(work.iter_mut()) {
         w.r = [0.0; 3];
         w.q = [0.0; 3];
-        // Without a ground no node is held (flags left by an earlier ground).
+        // Without a ground or probes no node is held (flags left by an
+        // earlier step).
         #[cfg(feature = "ground")]
-        if ground.is_none() {
+        if !obstacles_any {
             n.flags &= !CONTACT;
         }
         if n.flags & FIXED != 0 {
@@ -240,8 +275,8 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
             w.x = add(w.x, fit.at(n.position(), *m));
         }
         #[cfg(feature = "ground")]
-        if let (Some(g), true) = (ground, n.flags & CONTACT != 0) {
-            w.x = g.with_normal(w.x, g.held_dv(g.distance(n.position()), n.v, h));
+        if let Some(c) = obstacles.holding(n) {
+            w.x = c.with_normal(w.x, c.held_dv(c.distance(n.position()), n.v, h));
         }
         nonzero |= (w.x[0].to_bits() | w.x[1].to_bits() | w.x[2].to_bits()) << 1;
         w.d = if fused { add(n.v, w.x) } else { n.v };
@@ -387,7 +422,7 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
         move |i: usize, z: Vec3| -> Vec3 {
             filter(
                 #[cfg(feature = "ground")]
-                ground,
+                obstacles,
                 nodes_ro,
                 i,
                 z,
@@ -486,13 +521,22 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
         }
     }
 
-    // A push out of the ground moves the held nodes below the plane onto it
-    // within the solve, and their neighbours with them; the velocity it
-    // gives them only corrects positions, and `relax` takes it out again.
+    // A push out of the ground or a probe moves the held nodes inside
+    // their plane onto it within the solve, and their neighbours with them;
+    // the velocity it gives them only corrects positions, and `relax` takes
+    // it out again.
     #[cfg(feature = "ground")]
-    let relaxed = ground.is_some() && pushes > 0;
+    let relaxed = pushes > 0;
+    #[cfg(not(feature = "ground"))]
+    let relaxed = false;
+    // The support's impulse over the step (the fixed nodes', the ground's)
+    // and the fixed nodes' residuals, `−` their impulse (`relax` sums them
+    // before its own solve takes the residuals).
+    #[allow(unused_mut)] // only the ground adds to it
+    let mut support = [0.0f32; 3];
+    let mut fixed_r = [0.0f32; 3];
     #[cfg(feature = "ground")]
-    if let (Some(g), true) = (ground, relaxed) {
+    if relaxed {
         #[cfg(feature = "two-level")]
         let whole = (kind != Preconditioner::Mass).then_some(
             #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
@@ -502,7 +546,7 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
         );
         #[cfg(not(feature = "two-level"))]
         let whole = None::<fn(&mut [NodeWork]) -> f32>;
-        relax(g, h, nodes_ro, work, s, project, whole, apply);
+        fixed_r = relax(obstacles, h, nodes_ro, work, s, project, whole, apply);
     }
     // Check, then apply. The new displacement and velocity (after the ground
     // stops landing nodes) go into the spent CG scratch `d` and `q`, and the
@@ -528,7 +572,7 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
         // the next step holds again): only the others can land.
         #[cfg(feature = "ground")]
         if let Some(g) = ground {
-            below |= n.flags & CONTACT == 0 && g.distance(add(n.x0, u)) < 0.0;
+            below |= !on_ground(n) && Contact::still(g).distance(add(n.x0, u)) < 0.0;
         }
         w.d = u;
         w.q = v;
@@ -544,15 +588,40 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
             None => Rigid::new(nodes, true),
         };
         if let Some(body) = body {
-            impact(g, h, s.gravity, held > 0, &body, nodes, work, share);
+            let resting = held_ground > 0;
+            support = impact(g, h, s.gravity, resting, &body, nodes, work, share);
         }
     }
+    // Nodes that end inside a probe lose their normal velocity into it,
+    // relative to its own, the same way.
+    #[cfg(feature = "probe")]
+    let mut landed = false;
     for (n, w) in nodes.iter().zip(work.iter_mut()) {
         let (u, v) = (w.d, w.q);
         #[cfg(feature = "ground")]
         let v = match ground {
-            Some(g) => g.stop(add(n.x0, u), v),
+            Some(g) => {
+                let stopped = Contact::still(g).stop(add(n.x0, u), v, h);
+                support = axpy(support, n.mass, sub(stopped, v));
+                stopped
+            }
             None => v,
+        };
+        #[cfg(feature = "probe")]
+        let v = if has_probes && n.flags & BOUNDARY != 0 {
+            let x = add(n.x0, u);
+            let mut v = v;
+            for p in probes.iter_mut() {
+                if let Some(c) = p.inside(x) {
+                    let stopped = c.stop(x, v, h);
+                    p.next_force = axpy(p.next_force, -n.mass, sub(stopped, v));
+                    landed = true;
+                    v = stopped;
+                }
+            }
+            v
+        } else {
+            v
         };
         #[cfg(feature = "tool")]
         if n.flags & GRABBED != 0 && tool.active() {
@@ -561,6 +630,37 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
                 tool_force,
                 scale(sub(add(n.x0, u), tool.anchor(offsets.next())), tool.k_node),
             );
+        }
+        if n.flags & FIXED != 0 && !relaxed {
+            fixed_r = add(fixed_r, w.r);
+        }
+        // The contact impulse along a held node's normal is `−n·r` from the
+        // step's solve (`relax` has kept `n·r` in `pull`).
+        #[cfg(feature = "ground")]
+        if obstacles_any {
+            let holding = Obstacles::new(
+                ground,
+                #[cfg(feature = "probe")]
+                probes,
+            )
+            .holding(n);
+            if let Some(c) = holding {
+                if !relaxed {
+                    w.pull = dot(c.normal, w.r);
+                }
+                let impulse = scale(c.normal, -w.pull);
+                if n.contact == ON_GROUND {
+                    support = add(support, impulse);
+                }
+                #[cfg(feature = "probe")]
+                if let Some(p) = usize::from(n.contact)
+                    .checked_sub(1)
+                    .and_then(|k| probes.get_mut(k))
+                {
+                    p.next_force = sub(p.next_force, impulse);
+                    p.next_contacts += 1;
+                }
+            }
         }
         // The position x₀ + u is what a user reads: it must be finite too
         // (a node near f32::MAX plus a finite displacement can overflow,
@@ -572,22 +672,30 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
         w.d = u;
         w.q = v;
     }
-    if probe != 0.0 || !is_finite3(tool_force) {
+    let support = sub(support, fixed_r);
+    probe = finite_probe(finite_probe(probe, tool_force), support);
+    #[cfg(feature = "probe")]
+    for p in probes.iter() {
+        probe = finite_probe(probe, p.next_force);
+    }
+    if probe != 0.0 {
         return Err(StepError::Diverged);
     }
     for (n, w) in nodes.iter_mut().zip(work.iter()) {
         n.u = w.d;
         n.v = w.q;
         #[cfg(feature = "ground")]
-        if let Some(g) = ground {
-            // Release a held node whose contact force would pull (n·r > 0,
-            // from the step's solve: `relax` keeps it in `pull`).
-            let pull = if relaxed { w.pull } else { dot(g.normal, w.r) };
+        {
+            // Release a held node whose contact would pull (`pull > 0`).
             n.flags &= !RELEASED;
-            if n.flags & CONTACT != 0 && pull > 0.0 {
+            if n.flags & CONTACT != 0 && w.pull > 0.0 {
                 n.flags |= RELEASED;
             }
         }
+    }
+    #[cfg(feature = "probe")]
+    for p in probes.iter_mut() {
+        p.commit(h);
     }
     #[cfg(feature = "two-level")]
     crate::precond::commit_rotations(pre.aggs);
@@ -599,6 +707,10 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
     // contacts leaves no reference.
     #[cfg(feature = "ground")]
     if held > 0 || below {
+        closed = false;
+    }
+    #[cfg(feature = "probe")]
+    if landed {
         closed = false;
     }
     // Only with the guard: without it (a constant where the feature is
@@ -623,6 +735,7 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
         inverted: totals.inverted,
         contacts: held,
         tool_force,
+        support_force: scale(support, 1.0 / h),
         elastic_energy: if cfg!(feature = "diagnostics") {
             totals.energy
         } else {
@@ -787,24 +900,123 @@ impl Correction {
     }
 }
 
-/// The filter `S` of node `i`: the ground's normal removed from a held
-/// node. The ground is tested first: without it, the loop reads no node
-/// flags.
+/// The filter `S` of node `i`: the normal of its contact plane removed
+/// from a held node. The obstacles are tested first: without them, the
+/// loop reads no node flags.
 #[inline(always)]
 fn filter(
-    #[cfg(feature = "ground")] ground: Option<crate::ground::Plane>,
+    #[cfg(feature = "ground")] obstacles: Obstacles<'_>,
     nodes: &[Node],
     i: usize,
     z: Vec3,
 ) -> Vec3 {
     #[cfg(feature = "ground")]
-    if let Some(g) = ground {
-        if nodes.get(i).is_some_and(|n| n.flags & CONTACT != 0) {
-            return g.filter(z);
+    if obstacles.any() {
+        if let Some(c) = nodes.get(i).and_then(|n| obstacles.holding(n)) {
+            return c.filter(z);
         }
     }
     let _ = (i, nodes);
     z
+}
+
+/// What can hold a node during a step: the ground and the probes.
+#[cfg(feature = "ground")]
+#[derive(Clone, Copy)]
+struct Obstacles<'a> {
+    ground: Option<crate::ground::Plane>,
+    #[cfg(feature = "probe")]
+    probes: &'a [crate::Probe],
+    #[cfg(not(feature = "probe"))]
+    probes: core::marker::PhantomData<&'a ()>,
+}
+
+#[cfg(feature = "ground")]
+impl<'a> Obstacles<'a> {
+    #[inline(always)]
+    fn new(
+        ground: Option<crate::ground::Plane>,
+        #[cfg(feature = "probe")] probes: &'a [crate::Probe],
+    ) -> Self {
+        Self {
+            ground,
+            #[cfg(feature = "probe")]
+            probes,
+            #[cfg(not(feature = "probe"))]
+            probes: core::marker::PhantomData,
+        }
+    }
+
+    #[inline(always)]
+    fn any(&self) -> bool {
+        #[cfg(feature = "probe")]
+        if !self.probes.is_empty() {
+            return true;
+        }
+        self.ground.is_some()
+    }
+
+    /// The contact plane of a node the step holds (`CONTACT`): the ground's,
+    /// or its probe's, recomputed from the same positions and poses as when
+    /// the node was found (so with the same bits).
+    #[inline(always)]
+    fn holding(&self, n: &Node) -> Option<Contact> {
+        if n.flags & CONTACT == 0 {
+            return None;
+        }
+        if n.contact == ON_GROUND {
+            return self.ground.map(Contact::still);
+        }
+        #[cfg(feature = "probe")]
+        if let Some(p) = self.probes.get(usize::from(n.contact) - 1) {
+            return Some(p.contact(n.position()));
+        }
+        None
+    }
+
+    /// The obstacle that holds a free node at `x` this step, and its plane:
+    /// the ground if the node touches or is below it and is not moving
+    /// away; a probe (for a node on the boundary) if the probe reaches it
+    /// during the step and it is not moving away faster than the probe.
+    /// Of several, the one the node ends deepest in. A probe that held the
+    /// node last step (`was`) holds it while it is within the gap that
+    /// sliding along the last step's tangent plane leaves ([`Probe::gap`]),
+    /// however the node moves: a node pressed by a moving probe moves with
+    /// it, as fast as its plane up to rounding, and one pressed against a
+    /// still probe stays on it; the contact force decides release.
+    #[inline(always)]
+    fn deepest(&self, n: &Node, x: Vec3, h: f32, was: Option<u16>) -> Option<(u16, Contact)> {
+        let mut best: Option<(u16, Contact, f32)> = None;
+        if let Some(g) = self.ground {
+            let c = Contact::still(g);
+            let dist = c.distance(x);
+            if c.holds(dist, n.v, h) {
+                best = Some((ON_GROUND, c, dist));
+            }
+        }
+        #[cfg(feature = "probe")]
+        if n.flags & BOUNDARY != 0 {
+            // At most `MAX_PROBES`, checked by `step_with_probes`: the id
+            // fits.
+            for (k, p) in self.probes.iter().enumerate() {
+                let c = p.contact(x);
+                let dist = c.distance(x);
+                let id = k as u16 + 1;
+                let holds = c.holds(dist, n.v, h) || (was == Some(id) && dist <= p.gap(x, n.v, h));
+                if holds && best.is_none_or(|b| dist < b.2) {
+                    best = Some((id, c, dist));
+                }
+            }
+        }
+        best.map(|(id, c, _)| (id, c))
+    }
+}
+
+/// Whether the ground holds `n` this step.
+#[cfg(feature = "ground")]
+#[inline(always)]
+fn on_ground(n: &Node) -> bool {
+    n.flags & CONTACT != 0 && n.contact == ON_GROUND
 }
 
 /// The rigid motions of an isolated body about its centre of mass `c` at
@@ -1245,7 +1457,7 @@ impl PlaneFit {
 #[allow(clippy::too_many_arguments)] // the step's parts, as `cg::solve` takes them
 #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
 fn relax(
-    g: crate::ground::Plane,
+    obstacles: Obstacles<'_>,
     h: f32,
     nodes: &[Node],
     work: &mut [NodeWork],
@@ -1253,16 +1465,18 @@ fn relax(
     project: impl Fn(usize, Vec3) -> Vec3 + Copy,
     whole: Option<impl FnMut(&mut [NodeWork]) -> f32>,
     mut apply: impl FnMut(&mut [NodeWork]) -> f32 + Copy,
-) {
+) -> Vec3 {
+    let mut fixed_r = [0.0f32; 3];
     for (n, w) in nodes.iter().zip(work.iter_mut()) {
         w.dv = w.x;
-        w.pull = dot(g.normal, w.r);
-        let p = n.position();
-        let dist = g.distance(p);
-        w.x = if n.flags & CONTACT != 0 && g.pushes(p, dist) {
-            scale(g.normal, -dist / h)
-        } else {
-            [0.0; 3]
+        if n.flags & FIXED != 0 {
+            fixed_r = add(fixed_r, w.r);
+        }
+        let c = obstacles.holding(n);
+        w.pull = c.map_or(0.0, |c| dot(c.normal, w.r));
+        w.x = match c.and_then(|c| c.push(n.position()).map(|dist| (c, dist))) {
+            Some((c, dist)) => scale(c.normal, -dist / h),
+            None => [0.0; 3],
         };
         w.d = w.x;
         w.q = [0.0; 3];
@@ -1294,7 +1508,20 @@ fn relax(
         for w in work.iter_mut() {
             w.x = w.dv;
         }
+        return fixed_r;
     }
+    // The velocity change kept, `dv − w`, has the residual of the step's
+    // less the push's (`A (dv − w) = b − r_dv + r_w`): its constraint
+    // impulses are the step's less the push's, which only moved positions.
+    for (n, w) in nodes.iter().zip(work.iter_mut()) {
+        if n.flags & FIXED != 0 {
+            fixed_r = sub(fixed_r, w.r);
+        }
+        if let Some(c) = obstacles.holding(n) {
+            w.pull -= dot(c.normal, w.r);
+        }
+    }
+    fixed_r
 }
 
 /// The weight of a held node in the fit of an impact, per unit mass, against
@@ -1347,7 +1574,7 @@ fn impact(
     nodes: &[Node],
     work: &mut [NodeWork],
     share: impl FnOnce(&Rigid) -> f32,
-) {
+) -> Vec3 {
     let moving = body.fit(nodes, work, |n, w| scale(w.q, n.mass));
     // The nodes arriving, and the held nodes the motion would push into the
     // ground (weight `HELD`, target 0). An active set over at most three
@@ -1361,7 +1588,7 @@ fn impact(
         let mut active = 0u32;
         for (n, w) in nodes.iter().zip(work.iter()) {
             let p = n.position();
-            if n.flags & CONTACT != 0 {
+            if on_ground(n) {
                 let pushed = |f: &Option<(f32, Vec3)>| {
                     f.is_some_and(|f| dot(g.normal, frame.at(p, f)) < 0.0)
                 };
@@ -1371,7 +1598,7 @@ fn impact(
                 }
             } else {
                 let vn = dot(g.normal, w.q).max(dot(g.normal, body.at(n, moving)));
-                if vn < 0.0 && g.distance(add(n.x0, w.d)) < 0.0 {
+                if vn < 0.0 && Contact::still(g).distance(add(n.x0, w.d)) < 0.0 {
                     stop.add(p, n.mass, -vn);
                 }
             }
@@ -1388,7 +1615,7 @@ fn impact(
         solved = fit.map(|m| (stop, m));
     }
     let Some((stop, m)) = solved else {
-        return;
+        return [0.0; 3];
     };
     let settle = if resting { scale(gravity, h) } else { [0.0; 3] };
     // The line search's sums, and the centre of mass at the step's end.
@@ -1402,11 +1629,11 @@ fn impact(
     // The share takes a pass over the elements: only for an impact.
     let s = -along / norm2;
     if !(s > 0.0 && s.is_finite()) {
-        return;
+        return [0.0; 3];
     }
     let s = s.min(share(body));
     if !(s > 0.0) {
-        return;
+        return [0.0; 3];
     }
     // R y = y + 2 w (q × y) + 2 q × (q × y), with the unit quaternion (w, q)
     // of the Cayley rotation.
@@ -1415,13 +1642,17 @@ fn impact(
     let qw = 1.0 / crate::math::sqrt(1.0 + dot(half, half));
     let q = scale(half, qw);
     let shift = scale(g.normal, h * s * m.0);
+    let mut impulse = [0.0f32; 3];
     for (n, w) in nodes.iter().zip(work.iter_mut()) {
-        w.q = axpy(w.q, s, stop.at(n.position(), m));
+        let dv = scale(stop.at(n.position(), m), s);
+        impulse = axpy(impulse, n.mass, dv);
+        w.q = add(w.q, dv);
         let y = sub(add(n.x0, w.d), c);
         let qy = cross(q, y);
         let ry = add(y, add(scale(qy, 2.0 * qw), scale(cross(q, qy), 2.0)));
         w.d = sub(add(add(c, ry), shift), n.x0);
     }
+    impulse
 }
 
 /// How much of a body moves as one during a step of length `h`: the

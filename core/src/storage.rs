@@ -34,6 +34,13 @@ pub(crate) const CONTACT: u8 = 8;
 /// for before anything changes.
 #[cfg(feature = "tool")]
 pub(crate) const LISTED: u8 = 32;
+/// Node flag: the node is on the mesh's boundary (in a face that only one
+/// tetrahedron has), set at `build`: only these touch a probe.
+#[cfg(feature = "probe")]
+pub(crate) const BOUNDARY: u8 = 64;
+/// `Node::contact` of a node the ground holds; a probe's is its index + 1.
+#[cfg(feature = "ground")]
+pub(crate) const ON_GROUND: u16 = 0;
 
 /// A node slot (41 bytes of data, 44 with padding): opaque, named only to
 /// provide memory (`[Node::EMPTY; N]` for a [`SliceStorage`]). What only
@@ -51,8 +58,12 @@ pub struct Node {
     pub(crate) v: Vec3,
     /// Lumped mass (kg): a quarter of `ρ V₀` of every element around the node.
     pub(crate) mass: f32,
-    /// `FIXED | GRABBED | RELEASED | CONTACT | LOADED`.
+    /// `FIXED | GRABBED | RELEASED | CONTACT | LOADED | BOUNDARY`.
     pub(crate) flags: u8,
+    /// What holds the node while it has `CONTACT`: [`ON_GROUND`], or a
+    /// probe's index + 1. (In the slot's padding: no byte more.)
+    #[cfg(feature = "ground")]
+    pub(crate) contact: u16,
 }
 
 impl Node {
@@ -63,6 +74,8 @@ impl Node {
         v: [0.0; 3],
         mass: 0.0,
         flags: 0,
+        #[cfg(feature = "ground")]
+        contact: 0,
     };
 
     /// Current position `x0 + u` (m).
