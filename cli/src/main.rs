@@ -88,6 +88,10 @@ docs/scene-format.md. Among the scene keys:
                                     visual.final_positions, --vtk writes surface.pvd too
   [visual] reach = 0.002            how far outside the tetrahedra a vertex may lie (m;
                                     default half their mean edge length)
+  [[probe]] radius = 0.01           a rigid sphere (or shape = \"capsule\" with half_length
+            position = [x, y, z]    and axis) the body cannot enter, moving along path =
+            path = [[t, dx, dy, dz]] [[t, dx, dy, dz], ...]; history gets probe_forces,
+                                    contacts and support_force (fixed nodes and ground)
 Defaults: [material] young 1e6, poisson 0.3, density 1000; [solver] method
 \"qr-invertible\" (QR's bits wherever no element is inverted), dt 0.001,
 preconditioner \"two-level\" with cg_iterations 4 and warm_start true (\"mass\": 5, false;

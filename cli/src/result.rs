@@ -132,7 +132,7 @@ pub struct FinalState {
 }
 
 /// One `history` record.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct HistoryEntry {
     /// Steps done (static: Newton iterations done).
     pub step: u64,
@@ -154,6 +154,13 @@ pub struct HistoryEntry {
     pub cg_residual: f32,
     /// Force the body exerts on the tool (N).
     pub tool_force: [f32; 3],
+    /// Force the body exerts on each `[[probe]]`, in file order (N).
+    pub probe_forces: Vec<[f32; 3]>,
+    /// Nodes held by a probe or the ground during the last step.
+    pub contacts: u32,
+    /// Force the fixed nodes and the ground exert on the body over the last
+    /// step (N).
+    pub support_force: [f32; 3],
     /// Static only: out-of-balance force before this iteration, relative to the load.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub newton_residual: Option<f32>,
@@ -173,6 +180,8 @@ impl HistoryEntry {
             ("angular momentum", vec_ok(self.angular_momentum)),
             ("CG residual", self.cg_residual.is_finite()),
             ("tool force", vec_ok(self.tool_force)),
+            ("probe force", self.probe_forces.iter().all(|f| vec_ok(*f))),
+            ("support force", vec_ok(self.support_force)),
             (
                 "Newton residual",
                 self.newton_residual.is_none_or(f32::is_finite),
@@ -392,6 +401,9 @@ mod tests {
             cg_iterations: 5,
             cg_residual: 1e-3,
             tool_force: [0.0; 3],
+            probe_forces: Vec::new(),
+            contacts: 0,
+            support_force: [0.0; 3],
             newton_residual: None,
             newton_update: None,
         }

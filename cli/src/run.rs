@@ -14,7 +14,7 @@ use crate::progress::Progress;
 use crate::result::{
     self, Destination, FinalState, HistoryEntry, MeshCounts, RunResult, StaticOutcome, Timing,
 };
-use crate::scene_file::{self, SceneSpec, StaticSpec, ToolSpec};
+use crate::scene_file::{self, ProbeSpec, SceneSpec, StaticSpec, ToolSpec};
 use crate::select;
 use crate::visual::Visual;
 
@@ -184,11 +184,19 @@ impl Tool<'_> {
     }
 }
 
+/// A probe's centre at time `t` (s): its position plus its path's offset.
+fn probe_position(p: &ProbeSpec, t: f64) -> [f32; 3] {
+    let d = p.path.offset(t);
+    [0, 1, 2].map(|k| (p.position[k] + d[k]) as f32)
+}
+
 /// A built scene and what the run needs alongside it.
 struct Sim<'a> {
     spec: &'a SceneSpec,
     scene: VecScene,
     tool: Option<Tool<'a>>,
+    /// The `[[probe]]` entries, as the core steps them.
+    probes: Vec<corofem::Probe>,
     /// Scratch for `elastic_forces`.
     forces: Vec<[f32; 3]>,
     /// The `[visual]` surface, bound after the build.
@@ -281,11 +289,21 @@ impl<'a> Sim<'a> {
                 })
             }
         };
+        let probes = spec
+            .probes
+            .iter()
+            .map(|p| {
+                let at = probe_position(p, 0.0);
+                corofem::Probe::capsule(p.radius, p.half_length, at, p.axis)
+                    .map_err(|e| CliError(format!("{file}: {}: {e}", p.label)))
+            })
+            .collect::<CliResult<Vec<_>>>()?;
         let n = scene.node_count();
         Ok(Sim {
             spec,
             scene,
             tool,
+            probes,
             forces: vec![[0.0; 3]; n],
             visual: None,
         })
@@ -327,10 +345,26 @@ impl<'a> Sim<'a> {
                 }
                 _ => None,
             };
+            for (probe, p) in self.probes.iter_mut().zip(&spec.probes) {
+                // Checked by the scene file: finite, a unit axis.
+                let _ = probe.move_to(probe_position(p, t_end), p.axis);
+            }
             let start = Instant::now();
-            let stepped = match target {
-                Some(x) => self.scene.step_haptic(x),
-                None => self.scene.step(),
+            let stepped = match (target, self.probes.is_empty()) {
+                (Some(x), true) => self.scene.step_haptic(x),
+                (None, true) => self.scene.step(),
+                (target, false) => {
+                    let aimed = match target {
+                        Some(x) => self.scene.set_tool_target(x).map_err(|e| e.to_string()),
+                        None => Ok(()),
+                    };
+                    match aimed {
+                        Ok(()) => self.scene.step_with_probes(&mut self.probes),
+                        Err(why) => {
+                            return Err(CliError(format!("{}: [tool] path: {why}", spec.file)))
+                        }
+                    }
+                }
             };
             ms.push(start.elapsed().as_secs_f64() * 1e3);
             let diverged = |why: String| {
@@ -502,6 +536,9 @@ impl<'a> Sim<'a> {
             cg_iterations: stats.cg_iterations,
             cg_residual: stats.cg_residual,
             tool_force: stats.tool_force,
+            probe_forces: self.probes.iter().map(|p| p.force()).collect(),
+            contacts: stats.contacts,
+            support_force: stats.support_force,
             newton_residual: None,
             newton_update: None,
         };

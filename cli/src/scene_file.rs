@@ -37,6 +37,8 @@ struct RawScene {
     #[serde(default)]
     material_change: Vec<RawMaterialChange>,
     tool: Option<RawTool>,
+    #[serde(default)]
+    probe: Vec<RawProbe>,
     visual: Option<RawVisual>,
     #[serde(default)]
     output: RawOutput,
@@ -152,6 +154,19 @@ struct RawTool {
     release: Option<f64>,
 }
 
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawProbe {
+    shape: Option<String>,
+    radius: f64,
+    half_length: Option<f64>,
+    axis: Option<[f64; 3]>,
+    position: [f64; 3],
+    path: Option<Vec<[f64; 4]>>,
+    friction: Option<f64>,
+    static_friction: Option<f64>,
+}
+
 #[derive(Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawOutput {
@@ -239,6 +254,23 @@ pub struct ToolSpec {
     pub release: Option<f64>,
 }
 
+/// A `[[probe]]` entry: a rigid sphere or capsule the body cannot enter.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ProbeSpec {
+    /// Where it was written, e.g. `[[probe]] #1`.
+    pub label: String,
+    /// Radius (m).
+    pub radius: f32,
+    /// Half the capsule's segment length (m); 0 for a sphere.
+    pub half_length: f32,
+    /// The capsule's axis (unit; `[0, 0, 1]` for a sphere).
+    pub axis: [f32; 3],
+    /// The centre at t = 0 (m).
+    pub position: [f64; 3],
+    /// Offset of the centre from `position` over time.
+    pub path: ToolPath,
+}
+
 /// The `[visual]` table: a triangle surface carried by the tetrahedra.
 #[derive(Debug, Clone, PartialEq)]
 pub struct VisualSpec {
@@ -280,6 +312,8 @@ pub struct SceneSpec {
     pub material_changes: Vec<MaterialChange>,
     /// `[tool]`.
     pub tool: Option<ToolSpec>,
+    /// `[[probe]]` entries, in file order.
+    pub probes: Vec<ProbeSpec>,
     /// `[visual]`.
     pub visual: Option<VisualSpec>,
     /// `[output] every`.
@@ -579,6 +613,17 @@ impl Ctx<'_> {
         }
         material_changes.sort_by_key(|c| c.step);
         let tool = raw.tool.map(|t| self.tool(t)).transpose()?;
+        let probes = (raw.probe.into_iter().enumerate())
+            .map(|(i, p)| self.probe(&format!("[[probe]] #{}", i + 1), p))
+            .collect::<CliResult<Vec<_>>>()?;
+        if static_solve.is_some() && !probes.is_empty() {
+            return Err(self.bad(
+                "[solver]",
+                "static",
+                "true",
+                "false with [[probe]] (probes move over time steps)",
+            ));
+        }
         let visual = raw.visual.map(|v| self.visual(v, base)).transpose()?;
         let every = match raw.output.every {
             None => DEFAULT_EVERY,
@@ -598,6 +643,7 @@ impl Ctx<'_> {
             initial,
             material_changes,
             tool,
+            probes,
             visual,
             every,
         })
@@ -976,28 +1022,7 @@ impl Ctx<'_> {
             |k| k > 0.0,
             "a stiffness > 0 (N/m)",
         )?;
-        let points = t.path.unwrap_or_else(|| vec![[0.0; 4]]);
-        let shown = || {
-            let rows: Vec<String> = points.iter().take(4).map(|p| List(p).to_string()).collect();
-            let more = if points.len() > 4 { ", ..." } else { "" };
-            format!("[{}{more}]", rows.join(", "))
-        };
-        if points.is_empty() {
-            return Err(self.bad(S, "path", "[]", "at least one point [t, dx, dy, dz]"));
-        }
-        if points
-            .iter()
-            .flatten()
-            .any(|x| !x.is_finite() || !(*x as f32).is_finite())
-        {
-            return Err(self.bad(S, "path", shown(), "finite points [t, dx, dy, dz]"));
-        }
-        if points[0][0] < 0.0 {
-            return Err(self.bad(S, "path", shown(), "times t >= 0 (s)"));
-        }
-        if points.windows(2).any(|w| w[1][0] <= w[0][0]) {
-            return Err(self.bad(S, "path", shown(), "strictly increasing times t"));
-        }
+        let path = self.path(S, t.path)?;
         let release = match t.release {
             None => None,
             Some(r) => {
@@ -1010,8 +1035,107 @@ impl Ctx<'_> {
         Ok(ToolSpec {
             selection,
             stiffness,
-            path: ToolPath::new(points),
+            path,
             release,
+        })
+    }
+
+    /// A `path` key: `[t, dx, dy, dz]` points, finite, with times from 0
+    /// strictly increasing; absent, no motion.
+    fn path(&self, section: &str, points: Option<Vec<[f64; 4]>>) -> CliResult<ToolPath> {
+        let points = points.unwrap_or_else(|| vec![[0.0; 4]]);
+        let shown = || {
+            let rows: Vec<String> = points.iter().take(4).map(|p| List(p).to_string()).collect();
+            let more = if points.len() > 4 { ", ..." } else { "" };
+            format!("[{}{more}]", rows.join(", "))
+        };
+        let bad = |expected: &str| self.bad(section, "path", shown(), expected);
+        if points.is_empty() {
+            return Err(self.bad(section, "path", "[]", "at least one point [t, dx, dy, dz]"));
+        }
+        if points
+            .iter()
+            .flatten()
+            .any(|x| !x.is_finite() || !(*x as f32).is_finite())
+        {
+            return Err(bad("finite points [t, dx, dy, dz]"));
+        }
+        if points[0][0] < 0.0 {
+            return Err(bad("times t >= 0 (s)"));
+        }
+        if points.windows(2).any(|w| w[1][0] <= w[0][0]) {
+            return Err(bad("strictly increasing times t"));
+        }
+        Ok(ToolPath::new(points))
+    }
+
+    fn probe(&self, s: &str, p: RawProbe) -> CliResult<ProbeSpec> {
+        let capsule = match p.shape.as_deref() {
+            None | Some("sphere") => false,
+            Some("capsule") => true,
+            Some(other) => {
+                return Err(self.bad(
+                    s,
+                    "shape",
+                    format!("\"{other}\""),
+                    "\"sphere\" or \"capsule\"",
+                ))
+            }
+        };
+        let radius = self.real(s, "radius", p.radius, |r| r > 0.0, "a radius > 0 (m)")?;
+        let half_length = match (capsule, p.half_length) {
+            (true, Some(l)) => self.real(s, "half_length", l, |l| l >= 0.0, "a length >= 0 (m)")?,
+            (true, None) => {
+                return Err(self.bad(
+                    s,
+                    "half_length",
+                    "(missing)",
+                    "the capsule's half length (m)",
+                ))
+            }
+            (false, Some(l)) => {
+                return Err(self.bad(s, "half_length", Num(l), "no half_length for a sphere"))
+            }
+            (false, None) => 0.0,
+        };
+        let axis = match (capsule, p.axis) {
+            (true, Some(a)) => {
+                let ok = a.iter().all(|x| x.is_finite()) && a.iter().any(|x| *x != 0.0);
+                if !ok {
+                    return Err(self.bad(s, "axis", List(&a), "a finite, non-zero direction"));
+                }
+                let n = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
+                a.map(|x| (x / n) as f32)
+            }
+            (false, Some(a)) => {
+                return Err(self.bad(s, "axis", List(&a), "no axis for a sphere"));
+            }
+            (_, None) => [0.0, 0.0, 1.0],
+        };
+        if !p
+            .position
+            .iter()
+            .all(|x| x.is_finite() && (*x as f32).is_finite())
+        {
+            return Err(self.bad(s, "position", List(&p.position), "a finite point (m)"));
+        }
+        // Coulomb friction is not modelled: only frictionless probes.
+        for (key, value) in [
+            ("friction", p.friction),
+            ("static_friction", p.static_friction),
+        ] {
+            if let Some(f) = value.filter(|f| *f != 0.0) {
+                return Err(self.bad(s, key, Num(f), "0 (probes are frictionless)"));
+            }
+        }
+        let path = self.path(s, p.path)?;
+        Ok(ProbeSpec {
+            label: s.to_owned(),
+            radius,
+            half_length,
+            axis,
+            position: p.position,
+            path,
         })
     }
 }
@@ -1160,6 +1284,65 @@ mod tests {
             e.contains("[[material_change]] #1 step = 10: expected a step number from 0 to 9"),
             "{e}"
         );
+    }
+
+    #[test]
+    fn probes_parse_and_bad_ones_are_named() {
+        let ok = parse_str(
+            "[solver]\nsteps = 1\n[[probe]]\nradius = 0.01\nposition = [0, 0, 1]\nfriction = 0.0\n\
+             [[probe]]\nshape = \"capsule\"\nradius = 0.01\nhalf_length = 0.02\n\
+             axis = [0, 2, 0]\nposition = [0, 0, 1]\npath = [[0, 0, 0, 0], [1, 0, 0, -1]]\n",
+        )
+        .unwrap();
+        assert_eq!(ok.probes.len(), 2);
+        assert_eq!(
+            (ok.probes[0].half_length, ok.probes[0].axis),
+            (0.0, [0.0, 0.0, 1.0])
+        );
+        assert_eq!(
+            (ok.probes[1].half_length, ok.probes[1].axis),
+            (0.02, [0.0, 1.0, 0.0])
+        );
+        assert_eq!(ok.probes[1].path.offset(0.5), [0.0, 0.0, -0.5]);
+        for (text, expected) in [
+            (
+                "shape = \"cube\"\nradius = 1.0",
+                "[[probe]] #1 shape = \"cube\": expected \"sphere\"",
+            ),
+            (
+                "radius = 0.0",
+                "[[probe]] #1 radius = 0.0: expected a radius > 0",
+            ),
+            (
+                "radius = 1.0\nhalf_length = 1.0",
+                "[[probe]] #1 half_length = 1.0: expected no",
+            ),
+            (
+                "shape = \"capsule\"\nradius = 1.0",
+                "[[probe]] #1 half_length = (missing)",
+            ),
+            (
+                "shape = \"capsule\"\nradius = 1.0\nhalf_length = 1.0\naxis = [0, 0, 0]",
+                "[[probe]] #1 axis = [0.0, 0.0, 0.0]: expected a finite, non-zero",
+            ),
+            (
+                "radius = 1.0\nfriction = 0.3",
+                "[[probe]] #1 friction = 0.3: expected 0",
+            ),
+            ("radius = 1.0\npath = []", "[[probe]] #1 path = []"),
+        ] {
+            let e = parse_str(&format!(
+                "[solver]\nsteps = 1\n[[probe]]\nposition = [0, 0, 0]\n{text}\n"
+            ))
+            .unwrap_err()
+            .0;
+            assert!(e.contains(expected), "{e}");
+        }
+        let e =
+            parse_str("[solver]\nstatic = true\n[[probe]]\nradius = 1.0\nposition = [0, 0, 0]\n")
+                .unwrap_err()
+                .0;
+        assert!(e.contains("[solver] static = true"), "{e}");
     }
 
     #[test]

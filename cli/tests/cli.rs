@@ -125,15 +125,23 @@ fn result_has_every_key_of_the_format() {
         let keys: Vec<&str> = h.as_object().unwrap().keys().map(String::as_str).collect();
         assert_eq!(
             keys.len(),
-            10,
+            13,
             "exactly the format's keys in a dynamic record: {keys:?}"
         );
         for k in ["t", "kinetic_energy", "elastic_energy", "cg_residual"] {
             assert!(h[k].as_f64().unwrap().is_finite(), "{k}");
         }
-        for k in ["momentum", "angular_momentum", "tool_force"] {
+        for k in [
+            "momentum",
+            "angular_momentum",
+            "tool_force",
+            "support_force",
+        ] {
             vec3(&h[k]);
         }
+        // No [[probe]]: an empty list.
+        assert_eq!(h["probe_forces"].as_array().unwrap().len(), 0);
+        h["contacts"].as_u64().unwrap();
         h["inverted"].as_u64().unwrap();
         h["cg_iterations"].as_u64().unwrap();
     }

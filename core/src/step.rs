@@ -631,11 +631,19 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
                 scale(sub(add(n.x0, u), tool.anchor(offsets.next())), tool.k_node),
             );
         }
-        if n.flags & FIXED != 0 && !relaxed {
-            fixed_r = add(fixed_r, w.r);
+        // The constraint impulses are `−r` from the step's solve. After
+        // `relax` (which kept the step's `Σ r` over the fixed nodes and
+        // `n·r` of held nodes in `pull`), `r` is the push's residual `r_w`:
+        // the velocity change kept, `dv − w`, has the residual of the step's
+        // less the push's (`A (dv − w) = b − r_dv + r_w`), so its impulses
+        // are the step's less the push's, which only moved positions.
+        if n.flags & FIXED != 0 {
+            fixed_r = if relaxed {
+                sub(fixed_r, w.r)
+            } else {
+                add(fixed_r, w.r)
+            };
         }
-        // The contact impulse along a held node's normal is `−n·r` from the
-        // step's solve (`relax` has kept `n·r` in `pull`).
         #[cfg(feature = "ground")]
         if obstacles_any {
             let holding = Obstacles::new(
@@ -645,10 +653,14 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
             )
             .holding(n);
             if let Some(c) = holding {
+                // `pull` (the step's solve's, with the push) decides the
+                // release; the impulse is that of the velocity kept.
+                let along = dot(c.normal, w.r);
+                let kept = if relaxed { w.pull - along } else { along };
                 if !relaxed {
-                    w.pull = dot(c.normal, w.r);
+                    w.pull = along;
                 }
-                let impulse = scale(c.normal, -w.pull);
+                let impulse = scale(c.normal, -kept);
                 if n.contact == ON_GROUND {
                     support = add(support, impulse);
                 }
@@ -1008,6 +1020,7 @@ impl<'a> Obstacles<'a> {
                 }
             }
         }
+        let _ = was; // only probes hold on by it
         best.map(|(id, c, _)| (id, c))
     }
 }
@@ -1505,20 +1518,11 @@ fn relax(
         probe = finite_probe(probe, w.x);
     }
     if probe != 0.0 {
+        // The push stays, and with it the step's impulses: no push
+        // residual to take out of them.
         for w in work.iter_mut() {
             w.x = w.dv;
-        }
-        return fixed_r;
-    }
-    // The velocity change kept, `dv − w`, has the residual of the step's
-    // less the push's (`A (dv − w) = b − r_dv + r_w`): its constraint
-    // impulses are the step's less the push's, which only moved positions.
-    for (n, w) in nodes.iter().zip(work.iter_mut()) {
-        if n.flags & FIXED != 0 {
-            fixed_r = sub(fixed_r, w.r);
-        }
-        if let Some(c) = obstacles.holding(n) {
-            w.pull -= dot(c.normal, w.r);
+            w.r = [0.0; 3];
         }
     }
     fixed_r
