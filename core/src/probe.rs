@@ -290,33 +290,30 @@ impl Probe {
     /// step is still held: held on the tangent plane at the step's end, a
     /// node at `x` that slid along the plane by up to `h |v|` ends outside
     /// the curved surface by up to `(h |v|)² / 2r`; plus the rounding of
-    /// the distance (4 ε times the magnitudes it is formed from).
+    /// the distance.
     pub(crate) fn gap(&self, x: Vec3, v: Vec3, h: f32) -> f32 {
-        let size = x[0].abs()
-            + x[1].abs()
-            + x[2].abs()
-            + self.position[0].abs()
-            + self.position[1].abs()
-            + self.position[2].abs()
-            + self.half_length
-            + self.radius;
-        h * h * dot(v, v) / (2.0 * self.radius) + 4.0 * f32::EPSILON * size
+        h * h * dot(v, v) / (2.0 * self.radius) + self.rounding(x, self.position)
     }
 
     /// Whether `x` is inside the probe at the step's start by more than the
-    /// rounding of its distance (4 ε times the magnitudes it is formed
-    /// from): a node a fresh probe must not start in.
+    /// rounding of its distance: a node a fresh probe must not start in.
     pub(crate) fn starts_around(&self, x: Vec3) -> bool {
         let a = sub(x, self.nearest(self.start, self.start_axis, x));
+        sqrt(dot(a, a)) - self.radius < -self.rounding(x, self.start)
+    }
+
+    /// The rounding of a distance from `x` to the probe centred at `c`: 4 ε
+    /// times the magnitudes it is formed from.
+    fn rounding(&self, x: Vec3, c: Vec3) -> f32 {
         let size = x[0].abs()
             + x[1].abs()
             + x[2].abs()
-            + self.start[0].abs()
-            + self.start[1].abs()
-            + self.start[2].abs()
+            + c[0].abs()
+            + c[1].abs()
+            + c[2].abs()
             + self.half_length
             + self.radius;
-        sqrt(dot(a, a)) - self.radius < -4.0 * f32::EPSILON * size
+        4.0 * f32::EPSILON * size
     }
 }
 
