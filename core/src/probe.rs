@@ -249,8 +249,15 @@ impl Probe {
             .or_else(|| normalize(sub(c1, c0)))
             .or_else(|| normalize(cross(e1, [1.0, 0.0, 0.0])))
             .unwrap_or([0.0, 1.0, 0.0]);
-        let offset = self.support(normal, c1, e1);
-        let lift = offset - self.support(normal, c0, e0);
+        self.plane(normal)
+    }
+
+    /// The probe's supporting plane with unit normal `normal` at the end
+    /// pose, and how far it moves out over the step.
+    #[inline(always)]
+    fn plane(&self, normal: Vec3) -> Contact {
+        let offset = self.support(normal, self.position, self.axis);
+        let lift = offset - self.support(normal, self.start, self.start_axis);
         Contact {
             normal,
             offset,
@@ -267,13 +274,7 @@ impl Probe {
             return None;
         }
         let normal = normalize(a1)?;
-        let offset = self.support(normal, self.position, self.axis);
-        let lift = offset - self.support(normal, self.start, self.start_axis);
-        Some(Contact {
-            normal,
-            offset,
-            lift,
-        })
+        Some(self.plane(normal))
     }
 
     /// Keeps what a successful step summed and starts the next step where

@@ -106,17 +106,16 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
     }
     #[cfg(feature = "probe")]
     let has_probes = !probes.is_empty();
-    #[cfg(all(feature = "ground", not(feature = "probe")))]
-    let has_probes = false;
     // Whether anything can hold a node: the ground or a probe.
-    #[cfg(feature = "ground")]
-    let obstacles_any = ground.is_some() || has_probes;
     #[cfg(feature = "ground")]
     let obstacles = Obstacles::new(
         ground,
         #[cfg(feature = "probe")]
         probes,
     );
+    // A copy, for the passes that write the probes' sums.
+    #[cfg(feature = "ground")]
+    let obstacles_any = obstacles.any();
 
     // The node and work slices cut to one length, so that a node index
     // checked against one is known to be in range of the other: the force
