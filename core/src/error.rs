@@ -313,6 +313,8 @@ pub enum Parameter {
     ProbeHalfLength,
     /// The position or axis of a `Probe`.
     ProbePose,
+    /// A `Friction`'s coefficients.
+    Friction,
     /// The output slice of `Scene::update_surface` or `vertex_normals`.
     SurfaceOut,
 }
@@ -365,6 +367,9 @@ impl fmt::Display for Parameter {
             Parameter::ProbeRadius => "probe radius: it must be finite and > 0 m",
             Parameter::ProbeHalfLength => {
                 "capsule half length: it must be ≥ 0 m, finite with the radius added"
+            }
+            Parameter::Friction => {
+                "friction: the coefficients must be finite, ≥ 0, and the static one at least the kinetic one"
             }
             Parameter::ProbePose => {
                 "probe pose: the position must be finite and the axis finite and non-zero"

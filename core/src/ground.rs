@@ -33,6 +33,8 @@
 
 use crate::error::Parameter;
 use crate::math::{axpy, dot, is_finite3, normalize, Vec3};
+#[cfg(feature = "friction")]
+use crate::math::{scale, sub};
 
 /// A ground plane: points with `normal · x ≥ offset` are outside it.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -65,6 +67,83 @@ impl Plane {
     }
 }
 
+/// Coulomb friction between the body and an obstacle (the ground, a probe):
+/// a contact's tangential impulse is at most `μ` times its normal one.
+///
+/// * **Sticking.** A node that the obstacle holds and that does not slide
+///   on it moves with the obstacle: its tangential velocity is prescribed
+///   within the implicit step, like the normal, so a body at rest on a
+///   slope stays exactly at rest, without creep or jitter. It keeps
+///   sticking while its contact's tangential impulse, from the residual, is
+///   within `static_coefficient` times the normal one.
+/// * **Sliding.** Beyond that the node slides: the obstacle's tangential
+///   impulse is `kinetic_coefficient` times the normal one, opposite to its
+///   sliding velocity at the step's end, and never more than stops it (it
+///   then sticks again). Sliding friction thus only takes energy out.
+///
+/// Both coefficients 0 ([`Friction::NONE`], the default) is a frictionless
+/// contact, whose step is the same, bit for bit, as without the feature.
+#[cfg(feature = "friction")]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Friction {
+    stick: f32,
+    slide: f32,
+}
+
+#[cfg(feature = "friction")]
+impl Friction {
+    /// No friction.
+    pub const NONE: Self = Self {
+        stick: 0.0,
+        slide: 0.0,
+    };
+
+    /// Coulomb friction with a static coefficient `static_coefficient` (the
+    /// ratio of tangential to normal impulse below which a contact sticks)
+    /// and a kinetic one `kinetic_coefficient` (the ratio while it slides).
+    /// Both must be finite and ≥ 0, and the static one at least the kinetic
+    /// one: [`Parameter::Friction`] otherwise.
+    pub fn new(static_coefficient: f32, kinetic_coefficient: f32) -> Result<Self, crate::Error> {
+        let ok = static_coefficient.is_finite()
+            && kinetic_coefficient.is_finite()
+            && kinetic_coefficient >= 0.0
+            && static_coefficient >= kinetic_coefficient;
+        if !ok {
+            return Err(crate::Error::InvalidParameter {
+                parameter: Parameter::Friction,
+            });
+        }
+        Ok(Self {
+            stick: static_coefficient,
+            slide: kinetic_coefficient,
+        })
+    }
+
+    /// One coefficient `mu` for both sticking and sliding.
+    pub fn coulomb(mu: f32) -> Result<Self, crate::Error> {
+        Self::new(mu, mu)
+    }
+
+    /// The static coefficient.
+    #[must_use]
+    pub fn static_coefficient(&self) -> f32 {
+        self.stick
+    }
+
+    /// The kinetic coefficient.
+    #[must_use]
+    pub fn kinetic_coefficient(&self) -> f32 {
+        self.slide
+    }
+
+    /// Whether a contact sticks at all (a static coefficient > 0).
+    #[inline(always)]
+    pub(crate) fn sticks(&self) -> bool {
+        self.stick > 0.0
+    }
+}
+
 /// The half-space a node in contact must end a step in, `normal · x ≥
 /// offset`, and how far its plane moves out along the normal over the step
 /// (`lift`, m): a node's distance from the plane at the step's start is its
@@ -76,16 +155,27 @@ pub(crate) struct Contact {
     pub(crate) normal: Vec3,
     pub(crate) offset: f32,
     pub(crate) lift: f32,
+    /// How far the obstacle moves over the step where it holds the node
+    /// (m): a sticking node moves as far along the plane.
+    #[cfg(feature = "friction")]
+    pub(crate) travel: Vec3,
+    #[cfg(feature = "friction")]
+    pub(crate) friction: Friction,
 }
 
 impl Contact {
-    /// The ground's plane, which does not move.
+    /// The ground's plane, which does not move (frictionless; the step
+    /// gives held nodes the ground's friction).
     #[inline(always)]
     pub(crate) fn still(g: Plane) -> Self {
         Self {
             normal: g.normal,
             offset: g.offset,
             lift: 0.0,
+            #[cfg(feature = "friction")]
+            travel: [0.0; 3],
+            #[cfg(feature = "friction")]
+            friction: Friction::NONE,
         }
     }
 
@@ -127,6 +217,62 @@ impl Contact {
     #[must_use]
     pub(crate) fn with_normal(&self, z: Vec3, along: f32) -> Vec3 {
         axpy(self.filter(z), along, self.normal)
+    }
+
+    /// The velocity change to prescribe to a sticking node held at end
+    /// distance `dist` with velocity `v`: along the plane, to the
+    /// obstacle's velocity; along the normal, [`Contact::held_dv`].
+    #[cfg(feature = "friction")]
+    #[inline]
+    #[must_use]
+    pub(crate) fn stuck_dv(&self, dist: f32, v: Vec3, h: f32) -> Vec3 {
+        self.with_normal(
+            sub(scale(self.travel, 1.0 / h), v),
+            self.held_dv(dist, v, h),
+        )
+    }
+
+    /// The velocity along the plane of a node with velocity `v`, relative
+    /// to the obstacle's over a step of length `h`.
+    #[cfg(feature = "friction")]
+    #[inline]
+    #[must_use]
+    pub(crate) fn sliding(&self, v: Vec3, h: f32) -> Vec3 {
+        self.filter(sub(v, scale(self.travel, 1.0 / h)))
+    }
+
+    /// The kinetic friction force (N) for the next step of a node that
+    /// stuck in a step of length `h` with the contact impulse `impulse`
+    /// (the obstacle's on the node): zero while the impulse is within the
+    /// static cone (the node sticks on), else the kinetic coefficient's
+    /// share of the normal impulse, along the tangential impulse (the node
+    /// slides).
+    #[cfg(feature = "friction")]
+    #[inline]
+    #[must_use]
+    pub(crate) fn drag_after_stick(&self, impulse: Vec3, h: f32) -> Vec3 {
+        let press = dot(self.normal, impulse);
+        let t = self.filter(impulse);
+        let size = crate::math::sqrt(dot(t, t));
+        if !(press > 0.0) || size <= self.friction.stick * press {
+            return [0.0; 3];
+        }
+        scale(t, self.friction.slide * press / (h * size))
+    }
+
+    /// The kinetic friction force (N) for the next step of a node that
+    /// slides with velocity `rel` along the plane (relative to the
+    /// obstacle) after a step of length `h` in which the obstacle pressed it
+    /// with the normal impulse `press`: against `rel`.
+    #[cfg(feature = "friction")]
+    #[inline]
+    #[must_use]
+    pub(crate) fn drag_after_slide(&self, rel: Vec3, press: f32, h: f32) -> Vec3 {
+        let speed = crate::math::sqrt(dot(rel, rel));
+        if !(press > 0.0 && speed > 0.0) {
+            return [0.0; 3];
+        }
+        scale(rel, -self.friction.slide * press / (h * speed))
     }
 
     /// Stops a node that ended a step inside the plane: removes its normal
@@ -178,6 +324,22 @@ impl<S: crate::Storage> crate::Scene<S> {
     #[must_use]
     pub fn ground(&self) -> Option<Plane> {
         self.hdr.ground
+    }
+
+    /// Sets the friction between the body and the ground ([`Friction`];
+    /// none by default). Nodes that stuck keep sticking only while the new
+    /// coefficients hold them.
+    #[cfg(feature = "friction")]
+    pub fn set_ground_friction(&mut self, friction: Friction) {
+        self.hdr.ground_friction = friction;
+        self.hdr.forget_energy();
+    }
+
+    /// The friction between the body and the ground.
+    #[cfg(feature = "friction")]
+    #[must_use]
+    pub fn ground_friction(&self) -> Friction {
+        self.hdr.ground_friction
     }
 }
 

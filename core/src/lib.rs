@@ -79,6 +79,8 @@
 //! | `ground`, `tool`, `loads`, `statics`, `diagnostics` | ground contact, haptic tool, constant nodal forces, static solve, energies and momenta (and [`StepStats::elastic_energy`]) |
 //! | `energy-guard` (default) | the energy guard ([`Settings::energy_guard`]): a step takes out of the body's deformation the energy the previous step made beyond the work of moving the tool's target, while nothing else did work on it and elements were inverted |
 //! | `two-level` (default) | the block-Jacobi and two-level preconditioners ([`Preconditioner`]); two-level, 4 CG iterations from a warm start, is then the default solver |
+//! | `probe` | rigid spheres and capsules pressing on the body ([`Scene::step_with_probes`]; brings `ground`) |
+//! | `friction` | Coulomb friction, static and kinetic, for the ground and probes ([`Friction`]; brings `ground`) |
 //! | `surface` | embedded surfaces: a detailed triangle surface bound to the tetrahedra and moved with them ([`Scene::bind_surface`], [`Scene::update_surface`], [`vertex_normals`]) |
 //! | `alloc` | `VecStorage` and `VecScene`: storage in `Vec`s, sized at run time (the solver never allocates) |
 //! | `full` | all of the above |
@@ -160,6 +162,8 @@ pub use element::{element_blocks, ElementBlock, Method};
 /// elsewhere (e.g. a Cortex-M4F).
 pub const ELEMENTS_PER_BLOCK: usize = lanes::LANES;
 pub use error::{Error, Parameter, StepError};
+#[cfg(feature = "friction")]
+pub use ground::Friction;
 #[cfg(feature = "ground")]
 pub use ground::Plane;
 pub use material::Material;

@@ -73,6 +73,8 @@ pub struct Probe {
     /// succeeds.
     pub(crate) next_force: Vec3,
     pub(crate) next_contacts: u32,
+    #[cfg(feature = "friction")]
+    friction: crate::Friction,
 }
 
 impl Probe {
@@ -115,7 +117,32 @@ impl Probe {
             fresh: true,
             next_force: [0.0; 3],
             next_contacts: 0,
+            #[cfg(feature = "friction")]
+            friction: crate::Friction::NONE,
         })
+    }
+
+    /// The same probe with `friction` between it and the body (none by
+    /// default): a node it holds sticks to it and is dragged along, or
+    /// slides on it ([`crate::Friction`]).
+    #[cfg(feature = "friction")]
+    #[must_use]
+    pub fn with_friction(mut self, friction: crate::Friction) -> Self {
+        self.friction = friction;
+        self
+    }
+
+    /// Sets the friction between the probe and the body.
+    #[cfg(feature = "friction")]
+    pub fn set_friction(&mut self, friction: crate::Friction) {
+        self.friction = friction;
+    }
+
+    /// The friction between the probe and the body.
+    #[cfg(feature = "friction")]
+    #[must_use]
+    pub fn friction(&self) -> crate::Friction {
+        self.friction
     }
 
     /// Sets the pose the probe reaches at the end of the next step: its
@@ -249,19 +276,30 @@ impl Probe {
             .or_else(|| normalize(sub(c1, c0)))
             .or_else(|| normalize(cross(e1, [1.0, 0.0, 0.0])))
             .unwrap_or([0.0, 1.0, 0.0]);
-        self.plane(normal)
+        // The axis point's travel over the step: how a sticking node moves.
+        #[cfg(feature = "friction")]
+        let travel = sub(axpy(c1, s0, e1), axpy(c0, s0, e0));
+        self.plane(
+            normal,
+            #[cfg(feature = "friction")]
+            travel,
+        )
     }
 
     /// The probe's supporting plane with unit normal `normal` at the end
     /// pose, and how far it moves out over the step.
     #[inline(always)]
-    fn plane(&self, normal: Vec3) -> Contact {
+    fn plane(&self, normal: Vec3, #[cfg(feature = "friction")] travel: Vec3) -> Contact {
         let offset = self.support(normal, self.position, self.axis);
         let lift = offset - self.support(normal, self.start, self.start_axis);
         Contact {
             normal,
             offset,
             lift,
+            #[cfg(feature = "friction")]
+            travel,
+            #[cfg(feature = "friction")]
+            friction: self.friction,
         }
     }
 
@@ -274,7 +312,11 @@ impl Probe {
             return None;
         }
         let normal = normalize(a1)?;
-        Some(self.plane(normal))
+        Some(self.plane(
+            normal,
+            #[cfg(feature = "friction")]
+            [0.0; 3],
+        ))
     }
 
     /// Keeps what a successful step summed and starts the next step where

@@ -53,6 +53,9 @@ pub(crate) struct Header {
     pub(crate) any_fixed: bool,
     #[cfg(feature = "ground")]
     pub(crate) ground: Option<Plane>,
+    /// The friction between the body and the ground.
+    #[cfg(feature = "friction")]
+    pub(crate) ground_friction: crate::Friction,
     #[cfg(feature = "tool")]
     pub(crate) tool: ToolState,
     /// Entries used in the storage's load list (nodes flagged `LOADED`).
@@ -160,6 +163,8 @@ impl Header {
         any_fixed: false,
         #[cfg(feature = "ground")]
         ground: None,
+        #[cfg(feature = "friction")]
+        ground_friction: crate::Friction::NONE,
         #[cfg(feature = "tool")]
         tool: ToolState::NONE,
         #[cfg(feature = "loads")]

@@ -37,6 +37,8 @@ use crate::storage::BOUNDARY;
 use crate::storage::GRABBED;
 #[cfg(feature = "loads")]
 use crate::storage::LOADED;
+#[cfg(feature = "friction")]
+use crate::storage::STUCK;
 use crate::storage::{Node, NodeWork, FIXED};
 #[cfg(feature = "ground")]
 use crate::storage::{CONTACT, ON_GROUND, RELEASED};
@@ -99,6 +101,8 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
     let tool = hdr.tool;
     #[cfg(feature = "ground")]
     let ground = hdr.ground;
+    #[cfg(feature = "friction")]
+    let ground_friction = hdr.ground_friction;
     #[cfg(feature = "probe")]
     for p in probes.iter_mut() {
         p.next_force = [0.0; 3];
@@ -110,6 +114,8 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
     #[cfg(feature = "ground")]
     let obstacles = Obstacles::new(
         ground,
+        #[cfg(feature = "friction")]
+        ground_friction,
         #[cfg(feature = "probe")]
         probes,
     );
@@ -162,10 +168,21 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
     // on whether any node is held.
     #[cfg(feature = "ground")]
     if obstacles_any {
-        for n in nodes.iter_mut() {
+        for (n, _w) in nodes.iter_mut().zip(work.iter_mut()) {
             // What held the node last step (not released, or it is skipped).
             let was = (n.flags & CONTACT != 0).then_some(n.contact);
             n.flags &= !CONTACT;
+            // Between steps the flag says the node slid on `was` in the
+            // last step and did not stop; within a step, it sticks.
+            #[cfg(feature = "friction")]
+            let slid = n.flags & STUCK != 0;
+            #[cfg(feature = "friction")]
+            {
+                n.flags &= !STUCK;
+            }
+            // The planned drag, kept below only for a node that slides on.
+            #[cfg(feature = "friction")]
+            let drag = core::mem::replace(&mut _w.drag, [0.0; 3]);
             if n.flags & (FIXED | RELEASED) != 0 {
                 continue;
             }
@@ -173,6 +190,17 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
             if let Some((id, c)) = obstacles.deepest(n, x, h, was) {
                 n.flags |= CONTACT;
                 n.contact = id;
+                // A held node sticks unless it slid on the same obstacle
+                // in the last step (and did not stop): a contact that the
+                // static friction cannot hold is found by its impulse
+                // (`Contact::drag_after_stick`), and slides from the next
+                // step, with the kinetic friction force planned then.
+                #[cfg(feature = "friction")]
+                if slid && was == Some(id) {
+                    _w.drag = drag;
+                } else if c.friction.sticks() {
+                    n.flags |= STUCK;
+                }
                 held += 1;
                 held_ground += u32::from(id == ON_GROUND);
                 pushes += u32::from(c.push(x).is_some());
@@ -257,6 +285,10 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
         #[cfg(feature = "ground")]
         if !obstacles_any {
             n.flags &= !CONTACT;
+            #[cfg(feature = "friction")]
+            {
+                n.flags &= !STUCK;
+            }
         }
         if n.flags & FIXED != 0 {
             w.x = [0.0; 3];
@@ -275,7 +307,12 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
         }
         #[cfg(feature = "ground")]
         if let Some(c) = obstacles.holding(n) {
-            w.x = c.with_normal(w.x, c.held_dv(c.distance(n.position()), n.v, h));
+            let dist = c.distance(n.position());
+            w.x = c.with_normal(w.x, c.held_dv(dist, n.v, h));
+            #[cfg(feature = "friction")]
+            if n.flags & STUCK != 0 {
+                w.x = c.stuck_dv(dist, n.v, h);
+            }
         }
         nonzero |= (w.x[0].to_bits() | w.x[1].to_bits() | w.x[2].to_bits()) << 1;
         w.d = if fused { add(n.v, w.x) } else { n.v };
@@ -327,6 +364,14 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
         let (load, f_el) = ([0.0; 3], w.r);
         ledger.add(n, weight, load);
         let mut f = add(f_el, weight);
+        // A sliding node's kinetic friction, along its contact plane.
+        #[cfg(feature = "friction")]
+        if w.drag != [0.0; 3] {
+            if let Some(c) = obstacles.holding(n) {
+                w.drag = c.filter(w.drag);
+                f = add(f, w.drag);
+            }
+        }
         f = axpy(f, -s.rayleigh_mass * m, n.v);
         #[allow(unused_mut)] // only the tool adds to it
         let mut p = mass_coef * m;
@@ -622,14 +667,9 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
         } else {
             v
         };
-        #[cfg(feature = "tool")]
-        if n.flags & GRABBED != 0 && tool.active() {
-            // The body pulls the tool with minus the spring force.
-            tool_force = add(
-                tool_force,
-                scale(sub(add(n.x0, u), tool.anchor(offsets.next())), tool.k_node),
-            );
-        }
+        // Friction moves held nodes' velocities and positions.
+        #[cfg(feature = "friction")]
+        let (mut u, mut v) = (u, v);
         // The constraint impulses are `−r` from the step's solve. After
         // `relax` (which kept the step's `Σ r` over the fixed nodes and
         // `n·r` of held nodes in `pull`), `r` is the push's residual `r_w`:
@@ -647,6 +687,8 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
         if obstacles_any {
             let holding = Obstacles::new(
                 ground,
+                #[cfg(feature = "friction")]
+                ground_friction,
                 #[cfg(feature = "probe")]
                 probes,
             )
@@ -659,7 +701,38 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
                 if !relaxed {
                     w.pull = along;
                 }
-                let impulse = scale(c.normal, -kept);
+                #[allow(unused_mut)] // only friction adds to it
+                let mut impulse = scale(c.normal, -kept);
+                // Friction. A sticking node's tangential impulse is its
+                // residual's; beyond the static cone, the node slides from
+                // the next step. A sliding node's is the kinetic force's
+                // (in the solve's right-hand side); one that it stopped
+                // (its velocity along the plane no longer against the
+                // force) loses what is left of that velocity and sticks.
+                #[cfg(feature = "friction")]
+                {
+                    let mut dv = [0.0; 3];
+                    let next = if n.flags & STUCK != 0 {
+                        let r = if relaxed { sub(w.reaction, w.r) } else { w.r };
+                        impulse = scale(r, -1.0);
+                        c.drag_after_stick(impulse, h)
+                    } else if w.drag != [0.0; 3] {
+                        impulse = axpy(impulse, h, w.drag);
+                        let rel = c.sliding(v, h);
+                        if dot(rel, w.drag) < 0.0 {
+                            c.drag_after_slide(rel, -kept, h)
+                        } else {
+                            dv = scale(rel, -1.0);
+                            [0.0; 3]
+                        }
+                    } else {
+                        [0.0; 3]
+                    };
+                    w.reaction = next;
+                    impulse = axpy(impulse, n.mass, dv);
+                    v = add(v, dv);
+                    u = axpy(u, h, dv);
+                }
                 if n.contact == ON_GROUND {
                     support = add(support, impulse);
                 }
@@ -672,6 +745,14 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
                     p.next_contacts += 1;
                 }
             }
+        }
+        #[cfg(feature = "tool")]
+        if n.flags & GRABBED != 0 && tool.active() {
+            // The body pulls the tool with minus the spring force.
+            tool_force = add(
+                tool_force,
+                scale(sub(add(n.x0, u), tool.anchor(offsets.next())), tool.k_node),
+            );
         }
         // The position x₀ + u is what a user reads: it must be finite too
         // (a node near f32::MAX plus a finite displacement can overflow,
@@ -692,7 +773,7 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
     if probe != 0.0 {
         return Err(StepError::Diverged);
     }
-    for (n, w) in nodes.iter_mut().zip(work.iter()) {
+    for (n, w) in nodes.iter_mut().zip(work.iter_mut()) {
         n.u = w.d;
         n.v = w.q;
         #[cfg(feature = "ground")]
@@ -701,6 +782,16 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
             n.flags &= !RELEASED;
             if n.flags & CONTACT != 0 && w.pull > 0.0 {
                 n.flags |= RELEASED;
+            }
+            // A node that slides on keeps the kinetic force planned.
+            #[cfg(feature = "friction")]
+            {
+                n.flags &= !STUCK;
+                w.drag = [0.0; 3];
+                if n.flags & (CONTACT | RELEASED) == CONTACT && w.reaction != [0.0; 3] {
+                    n.flags |= STUCK;
+                    w.drag = w.reaction;
+                }
             }
         }
     }
@@ -923,8 +1014,15 @@ fn filter(
 ) -> Vec3 {
     #[cfg(feature = "ground")]
     if obstacles.any() {
-        if let Some(c) = nodes.get(i).and_then(|n| obstacles.holding(n)) {
-            return c.filter(z);
+        if let Some(n) = nodes.get(i) {
+            // A sticking node's velocity is prescribed whole.
+            #[cfg(feature = "friction")]
+            if n.flags & STUCK != 0 {
+                return [0.0; 3];
+            }
+            if let Some(c) = obstacles.holding(n) {
+                return c.filter(z);
+            }
         }
     }
     let _ = (i, nodes);
@@ -936,6 +1034,8 @@ fn filter(
 #[derive(Clone, Copy)]
 struct Obstacles<'a> {
     ground: Option<crate::ground::Plane>,
+    #[cfg(feature = "friction")]
+    ground_friction: crate::Friction,
     #[cfg(feature = "probe")]
     probes: &'a [crate::Probe],
     #[cfg(not(feature = "probe"))]
@@ -947,10 +1047,13 @@ impl<'a> Obstacles<'a> {
     #[inline(always)]
     fn new(
         ground: Option<crate::ground::Plane>,
+        #[cfg(feature = "friction")] ground_friction: crate::Friction,
         #[cfg(feature = "probe")] probes: &'a [crate::Probe],
     ) -> Self {
         Self {
             ground,
+            #[cfg(feature = "friction")]
+            ground_friction,
             #[cfg(feature = "probe")]
             probes,
             #[cfg(not(feature = "probe"))]
@@ -967,6 +1070,18 @@ impl<'a> Obstacles<'a> {
         self.ground.is_some()
     }
 
+    /// The ground's plane, with its friction.
+    #[inline(always)]
+    fn ground_contact(&self, g: crate::ground::Plane) -> Contact {
+        #[cfg(feature = "friction")]
+        return Contact {
+            friction: self.ground_friction,
+            ..Contact::still(g)
+        };
+        #[cfg(not(feature = "friction"))]
+        Contact::still(g)
+    }
+
     /// The contact plane of a node the step holds (`CONTACT`): the ground's,
     /// or its probe's, recomputed from the same positions and poses as when
     /// the node was found (so with the same bits).
@@ -976,7 +1091,7 @@ impl<'a> Obstacles<'a> {
             return None;
         }
         if n.contact == ON_GROUND {
-            return self.ground.map(Contact::still);
+            return self.ground.map(|g| self.ground_contact(g));
         }
         #[cfg(feature = "probe")]
         if let Some(p) = self.probes.get(usize::from(n.contact) - 1) {
@@ -999,7 +1114,7 @@ impl<'a> Obstacles<'a> {
     fn deepest(&self, n: &Node, x: Vec3, h: f32, was: Option<u16>) -> Option<(u16, Contact)> {
         let mut best: Option<(u16, Contact, f32)> = None;
         if let Some(g) = self.ground {
-            let c = Contact::still(g);
+            let c = self.ground_contact(g);
             let dist = c.distance(x);
             if c.holds(dist, n.v, h) {
                 best = Some((ON_GROUND, c, dist));
@@ -1486,6 +1601,10 @@ fn relax(
         }
         let c = obstacles.holding(n);
         w.pull = c.map_or(0.0, |c| dot(c.normal, w.r));
+        #[cfg(feature = "friction")]
+        {
+            w.reaction = w.r;
+        }
         w.x = match c.and_then(|c| c.push(n.position()).map(|dist| (c, dist))) {
             Some((c, dist)) => scale(c.normal, -dist / h),
             None => [0.0; 3],

@@ -38,6 +38,10 @@ pub(crate) const LISTED: u8 = 32;
 /// tetrahedron has), set at `build`: only these touch a probe.
 #[cfg(feature = "probe")]
 pub(crate) const BOUNDARY: u8 = 64;
+/// Node flag: the node sticks to what holds it (`CONTACT`): its velocity
+/// along the contact plane is prescribed too (Coulomb friction).
+#[cfg(feature = "friction")]
+pub(crate) const STUCK: u8 = 128;
 /// `Node::contact` of a node the ground holds; a probe's is its index + 1.
 #[cfg(feature = "ground")]
 pub(crate) const ON_GROUND: u16 = 0;
@@ -119,6 +123,16 @@ pub struct NodeWork {
     /// (positive: the plane would pull), kept for the same reason.
     #[cfg(feature = "ground")]
     pub(crate) pull: f32,
+    /// The step's residual `r` at a held node, whose tangential part is a
+    /// sticking node's friction impulse (`−r`), kept for the same reason;
+    /// then the kinetic friction force planned for the next step.
+    #[cfg(feature = "friction")]
+    pub(crate) reaction: Vec3,
+    /// The kinetic friction force (N) on a node that slides on what holds
+    /// it, planned by the last step for this one (zero for the others):
+    /// like the warm start, it carries from one step to the next.
+    #[cfg(feature = "friction")]
+    pub(crate) drag: Vec3,
 }
 
 impl NodeWork {
@@ -133,6 +147,10 @@ impl NodeWork {
         dv: [0.0; 3],
         #[cfg(feature = "ground")]
         pull: 0.0,
+        #[cfg(feature = "friction")]
+        reaction: [0.0; 3],
+        #[cfg(feature = "friction")]
+        drag: [0.0; 3],
     };
 }
 
