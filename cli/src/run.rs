@@ -263,6 +263,7 @@ impl<'a> Sim<'a> {
             scene
                 .set_ground(Some(plane))
                 .map_err(|e| CliError(format!("{file}: [world] ground: {e}")))?;
+            scene.set_ground_friction(spec.ground_friction);
         }
         if let Some(init) = spec.initial {
             let v = initial_velocities(&scene, init.velocity, init.angular_velocity);
@@ -295,6 +296,7 @@ impl<'a> Sim<'a> {
             .map(|p| {
                 let at = probe_position(p, 0.0);
                 corofem::Probe::capsule(p.radius, p.half_length, at, p.axis)
+                    .map(|probe| probe.with_friction(p.friction))
                     .map_err(|e| CliError(format!("{file}: {}: {e}", p.label)))
             })
             .collect::<CliResult<Vec<_>>>()?;

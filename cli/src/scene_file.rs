@@ -9,7 +9,9 @@
 use std::fmt::{self, Display};
 use std::path::{Path, PathBuf};
 
-use corofem::{BoxMesh, Material, Method, Plane, Preconditioner, Settings, StaticSettings};
+use corofem::{
+    BoxMesh, Friction, Material, Method, Plane, Preconditioner, Settings, StaticSettings,
+};
 use serde::Deserialize;
 
 use crate::error::{CliError, CliResult};
@@ -103,6 +105,8 @@ struct RawPlane {
     normal: [f64; 3],
     #[serde(default)]
     offset: f64,
+    friction: Option<f64>,
+    static_friction: Option<f64>,
 }
 
 #[derive(Debug, Clone, Copy, Deserialize)]
@@ -269,6 +273,8 @@ pub struct ProbeSpec {
     pub position: [f64; 3],
     /// Offset of the centre from `position` over time.
     pub path: ToolPath,
+    /// `friction` and `static_friction`.
+    pub friction: Friction,
 }
 
 /// The `[visual]` table: a triangle surface carried by the tetrahedra.
@@ -302,6 +308,8 @@ pub struct SceneSpec {
     pub static_solve: Option<StaticSpec>,
     /// `[world] ground`.
     pub ground: Option<Plane>,
+    /// `[world] ground`'s `friction` and `static_friction`.
+    pub ground_friction: Friction,
     /// `[[fixed]]` entries.
     pub fixed: Vec<Selection>,
     /// `[[force]]` entries.
@@ -547,6 +555,10 @@ impl Ctx<'_> {
         let material = self.material(&raw.material)?;
         let static_requested = raw.solver.static_solve.unwrap_or(false);
         let (settings, dt, steps, static_solve) = self.solver(&raw.solver, &raw.world)?;
+        let ground_friction = match &raw.world.ground {
+            Some(p) => self.friction("[world] ground", p.friction, p.static_friction)?,
+            None => Friction::NONE,
+        };
         let ground = match raw.world.ground {
             None => None,
             Some(p) => {
@@ -638,6 +650,7 @@ impl Ctx<'_> {
             steps,
             static_solve,
             ground,
+            ground_friction,
             fixed,
             forces,
             initial,
@@ -1119,15 +1132,7 @@ impl Ctx<'_> {
         {
             return Err(self.bad(s, "position", List(&p.position), "a finite point (m)"));
         }
-        // Coulomb friction is not modelled: only frictionless probes.
-        for (key, value) in [
-            ("friction", p.friction),
-            ("static_friction", p.static_friction),
-        ] {
-            if let Some(f) = value.filter(|f| *f != 0.0) {
-                return Err(self.bad(s, key, Num(f), "0 (probes are frictionless)"));
-            }
-        }
+        let friction = self.friction(s, p.friction, p.static_friction)?;
         let path = self.path(s, p.path)?;
         Ok(ProbeSpec {
             label: s.to_owned(),
@@ -1136,6 +1141,30 @@ impl Ctx<'_> {
             axis,
             position: p.position,
             path,
+            friction,
+        })
+    }
+
+    /// Coulomb friction from `friction` (kinetic, default 0) and
+    /// `static_friction` (default `friction`).
+    fn friction(
+        &self,
+        section: &str,
+        kinetic: Option<f64>,
+        stick: Option<f64>,
+    ) -> CliResult<Friction> {
+        let kinetic = kinetic.unwrap_or(0.0);
+        let stick = stick.unwrap_or(kinetic);
+        if !(kinetic.is_finite() && kinetic >= 0.0) {
+            return Err(self.bad(section, "friction", Num(kinetic), "a coefficient ≥ 0"));
+        }
+        Friction::new(stick as f32, kinetic as f32).map_err(|_| {
+            self.bad(
+                section,
+                "static_friction",
+                Num(stick),
+                "a finite coefficient at least `friction`",
+            )
         })
     }
 }
@@ -1148,6 +1177,34 @@ mod tests {
 
     fn parse_str(extra: &str) -> CliResult<SceneSpec> {
         parse(&format!("{BOX}{extra}"), "t.toml", Path::new("/scenes"))
+    }
+
+    #[test]
+    fn ground_friction_keys() {
+        let plane = "[solver]\nsteps = 1\n[world]\nground = { normal = [0, 0, 1], offset = 0.0";
+        let spec = parse_str(&format!(
+            "{plane}, friction = 0.4, static_friction = 0.5 }}\n"
+        ))
+        .unwrap();
+        assert_eq!(spec.ground_friction, Friction::new(0.5, 0.4).unwrap());
+        // `static_friction` defaults to `friction`; no keys: frictionless.
+        let spec = parse_str(&format!("{plane}, friction = 0.3 }}\n")).unwrap();
+        assert_eq!(spec.ground_friction, Friction::coulomb(0.3).unwrap());
+        let spec = parse_str(&format!("{plane} }}\n")).unwrap();
+        assert_eq!(spec.ground_friction, Friction::NONE);
+        for (keys, expected) in [
+            (
+                ", friction = -0.1",
+                "[world] ground friction = -0.1: expected a coefficient ≥ 0",
+            ),
+            (
+                ", friction = 0.5, static_friction = 0.4",
+                "[world] ground static_friction = 0.4: expected a finite coefficient at least `friction`",
+            ),
+        ] {
+            let err = parse_str(&format!("{plane}{keys} }}\n")).unwrap_err();
+            assert!(err.to_string().contains(expected), "{err}");
+        }
     }
 
     #[test]
@@ -1326,8 +1383,8 @@ mod tests {
                 "[[probe]] #1 axis = [0.0, 0.0, 0.0]: expected a finite, non-zero",
             ),
             (
-                "radius = 1.0\nfriction = 0.3",
-                "[[probe]] #1 friction = 0.3: expected 0",
+                "radius = 1.0\nfriction = 0.3\nstatic_friction = 0.2",
+                "[[probe]] #1 static_friction = 0.2: expected a finite coefficient at least `friction`",
             ),
             ("radius = 1.0\npath = []", "[[probe]] #1 path = []"),
         ] {
