@@ -258,3 +258,53 @@ fn a_probe_with_friction_drags_the_surface() {
         "{dragged} vs {slid}"
     );
 }
+
+/// A frictionless probe held still does no work: a free block thrown at a
+/// still sphere (no gravity, no damping) bounces off it, and its energy
+/// (kinetic plus elastic) never exceeds what it was thrown with.
+#[test]
+fn a_still_frictionless_probe_does_no_work() {
+    let mesh = box_mesh([0.04, 0.04, 0.02], [4, 4, 2], 6);
+    let mut scene = mesh.scene(&Material {
+        young: 2.0e4,
+        poisson: 0.3,
+        density: 1000.0,
+    });
+    scene
+        .set_settings(Settings {
+            dt: 1e-3,
+            gravity: [0.0; 3],
+            ..scene.default_settings()
+        })
+        .unwrap();
+    let n = scene.node_count();
+    scene.set_velocities(&vec![[0.0, 0.0, 0.1]; n]).unwrap();
+    let mut probes = [corofem::Probe::sphere(0.01, [0.02, 0.02, 0.0301]).unwrap()];
+    let energy = |scene: &VecScene, elastic: f32| -> f64 {
+        let kinetic: f64 = (0..n as u32)
+            .map(|i| {
+                let v = scene.velocity(i).unwrap();
+                0.5 * f64::from(scene.mass(i).unwrap())
+                    * v.iter().map(|c| f64::from(*c).powi(2)).sum::<f64>()
+            })
+            .sum();
+        kinetic + f64::from(elastic)
+    };
+    let start = energy(&scene, 0.0);
+    let (mut most, mut pushed) = (0.0f64, 0.0f32);
+    for _ in 0..300 {
+        let stats = scene.step_with_probes(&mut probes).unwrap();
+        most = most.max(energy(&scene, stats.elastic_energy));
+        pushed = pushed.max(probes[0].force()[2]);
+    }
+    let (_, _, v) = centre(&scene);
+    eprintln!("energy: start {start:e} J, most {most:e} J; largest push {pushed} N; v {v:?}");
+    // It touched the probe and was turned back.
+    assert!(pushed > 0.0 && v[2] < 0.0, "push {pushed} N, v {v:?}");
+    // The f64 sums of f32 terms: 1e-6 relative is far above their
+    // rounding, far below any work a moving probe would do here.
+    assert!(
+        most <= start * (1.0 + 1e-6),
+        "energy {most:e} J > {start:e} J"
+    );
+}
