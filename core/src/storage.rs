@@ -639,8 +639,9 @@ mod tests {
     /// the benchmark report quote): an element is 72 bytes with `qr` (a block
     /// holds `ELEMENTS_PER_BLOCK` of them, without padding), plus the
     /// rest gradients (36) for `polar`/`linear` and the rotation (16) for
-    /// `polar`; a node is 44 + 52 bytes with every feature (the tool's grab
-    /// offsets and the loads are 16-byte entries in lists of their own).
+    /// `polar`; a node is 44 + 52 bytes, and its solver scratch 16 bytes more
+    /// with `ground` and 24 more with `friction` (the tool's grab offsets and
+    /// the loads are 16-byte entries in lists of their own).
     /// CI runs this with `qr` alone, with the firmware's set and with `full`.
     #[test]
     fn storage_sizes_per_feature() {
@@ -656,7 +657,8 @@ mod tests {
         );
         assert_eq!(core::mem::size_of::<Node>(), 44);
         let ground = if cfg!(feature = "ground") { 16 } else { 0 };
-        assert_eq!(core::mem::size_of::<NodeWork>(), 52 + ground);
+        let friction = if cfg!(feature = "friction") { 24 } else { 0 };
+        assert_eq!(core::mem::size_of::<NodeWork>(), 52 + ground + friction);
         assert_eq!(core::mem::size_of::<NodeEntry>(), 16);
     }
 }
