@@ -76,10 +76,10 @@ impl Plane {
 ///   slope stays exactly at rest, without creep or jitter. It keeps
 ///   sticking while its contact's tangential impulse, from the residual, is
 ///   within `static_coefficient` times the normal one.
-/// * **Sliding.** Beyond that the node slides: the obstacle's tangential
-///   impulse is `kinetic_coefficient` times the normal one, opposite to its
-///   sliding velocity at the step's end, and never more than stops it (it
-///   then sticks again). Sliding friction thus only takes energy out.
+/// * **Sliding.** Beyond that the node slides from the next step: a force of
+///   `kinetic_coefficient` times its last normal force, against its sliding
+///   velocity, in the step's solve. A node whose sliding the force stops
+///   loses what is left of its sliding velocity and sticks again.
 ///
 /// Both coefficients 0 ([`Friction::NONE`], the default) is a frictionless
 /// contact, whose step is the same, bit for bit, as without the feature.
@@ -102,13 +102,16 @@ impl Friction {
     /// Coulomb friction with a static coefficient `static_coefficient` (the
     /// ratio of tangential to normal impulse below which a contact sticks)
     /// and a kinetic one `kinetic_coefficient` (the ratio while it slides).
-    /// Both must be finite and ≥ 0, and the static one at least the kinetic
-    /// one: [`Parameter::Friction`] otherwise.
+    /// Both must be finite and ≥ 0, the static one at least the kinetic
+    /// one, and the kinetic one > 0 if the static one is (a contact that
+    /// slips slides on by its kinetic force): [`Parameter::Friction`]
+    /// otherwise.
     pub fn new(static_coefficient: f32, kinetic_coefficient: f32) -> Result<Self, crate::Error> {
         let ok = static_coefficient.is_finite()
             && kinetic_coefficient.is_finite()
             && kinetic_coefficient >= 0.0
-            && static_coefficient >= kinetic_coefficient;
+            && static_coefficient >= kinetic_coefficient
+            && (kinetic_coefficient > 0.0 || static_coefficient == 0.0);
         if !ok {
             return Err(crate::Error::InvalidParameter {
                 parameter: Parameter::Friction,
@@ -244,35 +247,34 @@ impl Contact {
     /// The kinetic friction force (N) for the next step of a node that
     /// stuck in a step of length `h` with the contact impulse `impulse`
     /// (the obstacle's on the node): zero while the impulse is within the
-    /// static cone (the node sticks on), else the kinetic coefficient's
-    /// share of the normal impulse, along the tangential impulse (the node
-    /// slides).
+    /// static cone (the node sticks on), else the kinetic force along the
+    /// tangential impulse (the node slides).
     #[cfg(feature = "friction")]
     #[inline]
     #[must_use]
     pub(crate) fn drag_after_stick(&self, impulse: Vec3, h: f32) -> Vec3 {
         let press = dot(self.normal, impulse);
         let t = self.filter(impulse);
-        let size = crate::math::sqrt(dot(t, t));
-        if !(press > 0.0) || size <= self.friction.stick * press {
+        let cone = self.friction.stick * press;
+        if !(press > 0.0) || dot(t, t) <= cone * cone {
             return [0.0; 3];
         }
-        scale(t, self.friction.slide * press / (h * size))
+        self.drag(t, press, h)
     }
 
-    /// The kinetic friction force (N) for the next step of a node that
-    /// slides with velocity `rel` along the plane (relative to the
-    /// obstacle) after a step of length `h` in which the obstacle pressed it
-    /// with the normal impulse `press`: against `rel`.
+    /// The kinetic friction force (N) along `along` (a direction in the
+    /// plane, any length > 0; zero otherwise) for a node that the obstacle
+    /// pressed with the normal impulse `press` over a step of length `h`:
+    /// `μk press / h`, zero for `press ≤ 0`.
     #[cfg(feature = "friction")]
     #[inline]
     #[must_use]
-    pub(crate) fn drag_after_slide(&self, rel: Vec3, press: f32, h: f32) -> Vec3 {
-        let speed = crate::math::sqrt(dot(rel, rel));
-        if !(press > 0.0 && speed > 0.0) {
+    pub(crate) fn drag(&self, along: Vec3, press: f32, h: f32) -> Vec3 {
+        let size = crate::math::sqrt(dot(along, along));
+        if !(press > 0.0 && size > 0.0) {
             return [0.0; 3];
         }
-        scale(rel, -self.friction.slide * press / (h * speed))
+        scale(along, self.friction.slide * press / (h * size))
     }
 
     /// Stops a node that ended a step inside the plane: removes its normal

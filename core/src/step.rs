@@ -720,7 +720,7 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
                         impulse = axpy(impulse, h, w.drag);
                         let rel = c.sliding(v, h);
                         if dot(rel, w.drag) < 0.0 {
-                            c.drag_after_slide(rel, -kept, h)
+                            c.drag(scale(rel, -1.0), -kept, h)
                         } else {
                             dv = scale(rel, -1.0);
                             [0.0; 3]

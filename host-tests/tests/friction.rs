@@ -137,8 +137,10 @@ fn a_block_slides_above_the_friction_angle() {
             // Converged, only the f32 rounding of the velocities (2.4 m/s,
             // 1.2e-7 relative each) and of the residual remains.
             assert!(err < 1e-5, "a {a} vs {expect}");
+            // The solve's residual (1e-6 of its start) is the only impulse
+            // left unreported: 2.3e-6 of m g h measured, 1e-5 allowed.
             assert!(
-                worst < 1e-3,
+                worst < 1e-5,
                 "momentum misses the impulses by {worst:e} of m g h"
             );
         } else {
@@ -179,6 +181,9 @@ fn bad_coefficients_are_refused() {
     assert_eq!(Friction::new(-0.1, -0.2), bad);
     assert_eq!(Friction::new(0.2, -0.1), bad);
     assert_eq!(Friction::new(0.2, 0.3), bad, "static below kinetic");
+    // A static coefficient without a kinetic one: a contact that slipped
+    // would have no force to slide by.
+    assert_eq!(Friction::new(0.5, 0.0), bad);
     assert_eq!(Friction::new(f32::NAN, 0.1), bad);
     assert_eq!(Friction::new(f32::INFINITY, 0.1), bad);
     assert_eq!(Friction::coulomb(f32::NAN), bad);
