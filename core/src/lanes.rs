@@ -75,49 +75,61 @@ impl<const L: usize> Lanes<L> {
     }
 }
 
+// The arithmetic is written out lane by lane for each lane count in use,
+// not as loops over the lanes: the kernels are long chains of these
+// operations, and a loop per operation left LLVM thousands of tiny loops per
+// function to canonicalise, unroll and vectorise, which dominated the
+// build. Written out, the lanes are straight-line code that the SLP
+// vectoriser packs into the same vector instructions.
 macro_rules! lanewise {
-    ($tr:ident, $f:ident, $op:tt) => {
-        impl<const L: usize> $tr for Lanes<L> {
+    ($l:literal: $($i:literal)*) => {
+        impl Add for Lanes<$l> {
             type Output = Self;
             #[inline(always)]
-            fn $f(self, o: Self) -> Self {
-                let mut out = self.0;
-                for (a, b) in out.iter_mut().zip(o.0) {
-                    *a $op b;
-                }
-                Lanes(out)
+            fn add(self, o: Self) -> Self {
+                Lanes([$(self.0[$i] + o.0[$i]),*])
+            }
+        }
+        impl Sub for Lanes<$l> {
+            type Output = Self;
+            #[inline(always)]
+            fn sub(self, o: Self) -> Self {
+                Lanes([$(self.0[$i] - o.0[$i]),*])
+            }
+        }
+        impl Mul for Lanes<$l> {
+            type Output = Self;
+            #[inline(always)]
+            fn mul(self, o: Self) -> Self {
+                Lanes([$(self.0[$i] * o.0[$i]),*])
+            }
+        }
+        impl Div for Lanes<$l> {
+            type Output = Self;
+            #[inline(always)]
+            fn div(self, o: Self) -> Self {
+                Lanes([$(self.0[$i] / o.0[$i]),*])
+            }
+        }
+        impl Neg for Lanes<$l> {
+            type Output = Self;
+            #[inline(always)]
+            fn neg(self) -> Self {
+                Lanes([$(-self.0[$i]),*])
+            }
+        }
+        impl Real for Lanes<$l> {
+            #[inline(always)]
+            fn splat(x: f32) -> Self {
+                Lanes([x; $l])
+            }
+            #[inline(always)]
+            fn root(self) -> Self {
+                Lanes([$(sqrt(self.0[$i])),*])
             }
         }
     };
 }
-lanewise!(Add, add, +=);
-lanewise!(Sub, sub, -=);
-lanewise!(Mul, mul, *=);
-lanewise!(Div, div, /=);
-
-impl<const L: usize> Neg for Lanes<L> {
-    type Output = Self;
-    #[inline(always)]
-    fn neg(self) -> Self {
-        let mut out = self.0;
-        for a in out.iter_mut() {
-            *a = -*a;
-        }
-        Lanes(out)
-    }
-}
-
-impl<const L: usize> Real for Lanes<L> {
-    #[inline(always)]
-    fn splat(x: f32) -> Self {
-        Lanes([x; L])
-    }
-    #[inline(always)]
-    fn root(self) -> Self {
-        let mut out = self.0;
-        for a in out.iter_mut() {
-            *a = sqrt(*a);
-        }
-        Lanes(out)
-    }
-}
+lanewise!(1: 0);
+lanewise!(4: 0 1 2 3);
+lanewise!(8: 0 1 2 3 4 5 6 7);
