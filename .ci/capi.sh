@@ -46,13 +46,20 @@ NATIVE="-lgcc_s -lutil -lrt -lpthread -lm -ldl -lc"
 cc -std=c11 -O2 -Wall -Wextra -pedantic -Werror -ffp-contract=off -Icapi/include \
     capi/examples/haptic_loop.c "$CARGO_TARGET_DIR/release/libcorofem_capi.a" $NATIVE -o "$OUT/haptic_loop"
 "$OUT/haptic_loop" box 2000 | tee "$OUT/box.txt"
-if [ -f "$LIVER" ]; then "$OUT/haptic_loop" "$LIVER" 2000 --rt; fi
-pass "C example on the host"
+# The probe scene: a sphere pressed into the body, slid and lifted.
+"$OUT/haptic_loop" box 2000 --probe --friction
+if [ -f "$LIVER" ]; then
+    "$OUT/haptic_loop" "$LIVER" 2000 --rt
+    "$OUT/haptic_loop" "$LIVER" 2000 --probe
+    "$OUT/haptic_loop" "$LIVER" 3000 --probe --friction --rt
+fi
+pass "C example on the host (the tool, and the probe with and without friction)"
 
 step "Rust API, C functions from Rust, and the C program: same hashes"
 COROFEM_C_EXAMPLE="$OUT/haptic_loop" cargo test --manifest-path $MANIFEST
-# Without the feature `surface` its functions are there and say so.
-cargo test --manifest-path $MANIFEST --no-default-features --features qr --test api -- surfaces_are_unsupported
+# Without the features `surface`, `probe` and `friction` their functions
+# are there and say so.
+cargo test --manifest-path $MANIFEST --no-default-features --features qr --test api -- _unsupported_without_the_feature
 pass "Rust tests, hashes from Rust, from the C functions and from the C program agree"
 
 step "the same C example on a Cortex-M4F (thumbv7em staticlib, arm-none-eabi-gcc, QEMU mps2-an386)"
@@ -105,6 +112,9 @@ if command -v arm-none-eabi-gcc >/dev/null && command -v qemu-system-arm >/dev/n
     same '^hash ' haptic_loop_surface
     same '^surface tip ring centre ' haptic_loop_surface
     pass "Cortex-M4F image with surfaces has no panicking code; its surface (to 1 µm) and hash equal the host's"
+    # The Cortex-M4F images are built without `probe` and `friction`: the
+    # probe scene is the host's (on a microcontroller the example runs the
+    # tool scene, which takes no arguments there).
 else
     # A check that cannot run is a failure, not a pass.
     echo "arm-none-eabi-gcc (with newlib) or qemu-system-arm could not be installed"

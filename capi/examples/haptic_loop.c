@@ -1,6 +1,6 @@
 /* A haptic loop through the corofem C API.
  *
- *   haptic_loop [MESH.tetmesh|box] [STEPS] [--rt]
+ *   haptic_loop [MESH.tetmesh|box] [STEPS] [--probe [--friction]] [--rt]
  *   haptic_loop --help
  *
  * Builds a scene in a static buffer (no allocation anywhere), fixes part of
@@ -14,14 +14,32 @@
  * checks it at rest and prints where its tip ring ends up; a library built
  * without the feature `surface` (the Cortex-M4F's) says so instead.
  *
- * Scenes (both must match capi/tests/haptic_loop.rs exactly):
+ * Scenes (all must match capi/tests/haptic_loop.rs exactly):
  *   box   (default) a 10 cm × 2 cm × 2 cm beam, 99 nodes / 240 tets,
  *         fixed at x = 0, grabbed at x = 10 cm, pulled down and back.
  *   MESH  SOFA's liver (sofa_liver.tetmesh) scaled by 0.03 to metres,
  *         fixed at nodes 3, 39, 64, grabbed at its tip, pulled out and back.
  *
- * --rt paces the loop at 1 kHz with absolute deadlines (POSIX hosts) and
- * reports deadline misses; without it the loop runs flat out.
+ * --probe: instead of the tool, a sphere of radius 6 mm (a fingertip)
+ * presses on the body from above, the body held by a tray (its nodes
+ * within 3 cm of its lowest fixed; the box's bottom face), without gravity
+ * (this soft liver, E = 5 kPa, would slump under its weight on a tray of
+ * 15 nodes): only the probe loads it. On the liver it presses over the
+ * topmost node (+y), on the box over node 84 (+z; x = 7 cm, on the top
+ * face's centre line). It starts 2 mm above that node, presses in 0.3 s
+ * to 5 mm below it, slides 15 mm along +x in 0.5 s, rises back in 0.3 s
+ * and returns above its start in 0.1 s: a cycle of 1.2 s, repeated. The
+ * program prints the probe's final force, its largest push, the support
+ * force and the hash.
+ * --friction gives the probe Coulomb friction (static 0.6, kinetic 0.4), so
+ * that the slide drags the surface along. A library built without the
+ * feature `probe` (the Cortex-M4F's) says so and stops.
+ *
+ * --rt paces the loop at 1 kHz with absolute deadlines (POSIX hosts:
+ * mlockall, buffers touched first, on Linux 1 ns timer slack, the last
+ * 50 us spun) and reports the per-step time's median (p50), p99, p99.9 and
+ * maximum and the deadline misses; without it the loop runs flat out and
+ * reports the same percentiles.
  *
  * Build (host, at the repository root; capi is a member of the root
  * workspace, so the library lands in the root's target/, or in
@@ -54,16 +72,22 @@
 #define HAVE_CLOCK 1
 #define MAX_NODES 4096
 #define MAX_TETS 16384
+#include <sys/mman.h> /* mlockall */
 #include <time.h>
+#if defined(__linux__)
+#include <sys/prctl.h> /* PR_SET_TIMERSLACK */
+#endif
 #endif
 
 /* Static storage: the mesh arrays and the scene arena. */
 static float nodes[MAX_NODES * 3];
 static uint32_t tets[MAX_TETS * 4];
 static float positions[MAX_NODES * 3];
+static uint32_t on_tray[MAX_NODES]; /* the probe scene's fixed nodes */
 /* Large enough for MAX_NODES / MAX_TETS with every feature (checked below):
- * per node 96 B of state and scratch, 32 B of grab and load slots and 32 B
- * of preconditioner node block; per tetrahedron at most 136 B; and the
+ * per node 136 B of state and scratch (with the ground and friction), 32 B
+ * of grab and load slots and 32 B of preconditioner node block; per
+ * tetrahedron at most 136 B; and the
  * two-level preconditioner's aggregates: on the host at most 64 of 176 B
  * for 4 096 nodes, and the 385 rows of 48 slots of 32 B of their coarse
  * solve; none on bare metal, whose library is built without the
@@ -73,7 +97,13 @@ static float positions[MAX_NODES * 3];
 #else
 #define AGGREGATE_BYTES (64 * 176 + 385 * 48 * 32)
 #endif
-static unsigned char arena[MAX_NODES * 160 + MAX_TETS * 136 + AGGREGATE_BYTES + 512];
+static unsigned char arena[MAX_NODES * 200 + MAX_TETS * 136 + AGGREGATE_BYTES + 512];
+
+/* The probe scene's one probe: a set of probes lives in a buffer of its
+ * own, like the scene (100 B per probe and a header; corofem_probes_bytes
+ * gives the exact need). */
+static unsigned char probe_buffer[256];
+#define PROBE_RADIUS 0.006f
 
 /* An embedded surface for the box: an open tube of radius 1.2 cm around the
  * beam's axis (12 vertices on each of 11 rings, 1 cm apart), partly inside
@@ -153,12 +183,41 @@ static int cmp_i64(const void *a, const void *b) {
 }
 
 static int64_t step_ns[100000];
+
+/* The nearest-rank `per_mille` / 10 percentile of `n` sorted values. */
+static int64_t pct(const int64_t *sorted, uint32_t n, uint32_t per_mille) {
+    uint64_t k = ((uint64_t)n * per_mille + 999) / 1000; /* ceil(n p) */
+    if (k < 1) k = 1;
+    return sorted[k - 1];
+}
 #endif
 
 /* The tool path: a triangle wave 0 → 1 → 0 over each second (1000 steps). */
 static float triangle(uint32_t step) {
     float a = (float)(step % 1000u) / 1000.0f;
     return a < 0.5f ? 2.0f * a : 2.0f - 2.0f * a;
+}
+
+/* The probe's centre at the end of step `k` (1-based), from its start
+ * `c0` to its deepest point `b` and back, in cycles of 1200 steps: to `b`
+ * over steps 1..300, 15 mm along +x over 301..800, back up to `c0` (15 mm
+ * along) over 801..1100, back over `c0` over 1101..1200. Plain float
+ * operations in this order, as capi/tests/haptic_loop.rs computes them. */
+static void probe_path(const float c0[3], const float b[3], uint32_t step, float out[3]) {
+    const float slide = 0.015f;
+    const uint32_t k = (step - 1u) % 1200u + 1u;
+    float s, side; /* s: 0 at c0, 1 at b */
+    if (k <= 300u) {
+        s = (float)k / 300.0f, side = 0.0f;
+    } else if (k <= 800u) {
+        s = 1.0f, side = slide * ((float)(k - 300u) / 500.0f);
+    } else if (k <= 1100u) {
+        s = (float)(1100u - k) / 300.0f, side = slide;
+    } else {
+        s = 0.0f, side = slide * ((float)(1200u - k) / 100.0f);
+    }
+    for (int c = 0; c < 3; c++) out[c] = c0[c] + (b[c] - c0[c]) * s;
+    out[0] = out[0] + side;
 }
 
 /* Binds the tube to the box scene and checks it at rest: every vertex where
@@ -223,30 +282,51 @@ static int bind_skin(corofem_scene *scene) {
 }
 
 static const char USAGE[] =
-    "usage: haptic_loop [MESH.tetmesh|box] [STEPS] [--rt]\n"
+    "usage: haptic_loop [MESH.tetmesh|box] [STEPS] [--probe [--friction]] [--rt]\n"
     "\n"
     "Runs the haptic loop of the corofem C API example for STEPS steps of 1 ms\n"
     "(default 2000) on the built-in 10 x 2 x 2 cm beam (box, the default) or on\n"
     "a tetmesh file (SOFA's liver, scaled by 0.03 to metres), and prints the\n"
     "final tool force and a hash of the state.\n"
+    "  --probe     press a 6 mm sphere into the body from above, slide it, lift\n"
+    "              it, instead of pulling with the tool; print the probe's force\n"
+    "  --friction  with --probe: Coulomb friction between probe and body\n"
+    "              (static 0.6, kinetic 0.4)\n"
     "  --rt        pace the loop at 1 kHz and report deadline misses\n"
     "  -h, --help  print this help\n";
 
 int main(int argc, char **argv) {
-    /* Options first: anything else that starts with '-' is not a mesh file. */
+    /* Options first, anywhere: anything else that starts with '-' is not a
+     * mesh file; the others are the mesh and the step count, in order. */
+    const char *mesh = "box", *steps_arg = NULL;
+    int rt = 0, with_probe = 0, with_friction = 0, positional = 0;
     for (int i = 1; i < argc; i++) {
         if (strcmp(argv[i], "--help") == 0 || strcmp(argv[i], "-h") == 0) {
             fputs(USAGE, stdout);
             return 0;
-        }
-        if (argv[i][0] == '-' && !(i == 3 && strcmp(argv[i], "--rt") == 0)) {
+        } else if (strcmp(argv[i], "--rt") == 0) {
+            rt = 1;
+        } else if (strcmp(argv[i], "--probe") == 0) {
+            with_probe = 1;
+        } else if (strcmp(argv[i], "--friction") == 0) {
+            with_friction = 1;
+        } else if (argv[i][0] == '-') {
             printf("error: unknown option %s\n%s", argv[i], USAGE);
+            return 2;
+        } else if (positional == 0) {
+            mesh = argv[i], positional = 1;
+        } else if (positional == 1) {
+            steps_arg = argv[i], positional = 2;
+        } else {
+            printf("error: unexpected argument %s\n%s", argv[i], USAGE);
             return 2;
         }
     }
-    const char *mesh = argc > 1 ? argv[1] : "box";
-    uint32_t steps = argc > 2 ? (uint32_t)strtoul(argv[2], NULL, 10) : 2000;
-    int rt = argc > 3 && strcmp(argv[3], "--rt") == 0;
+    if (with_friction && !with_probe) {
+        printf("error: --friction needs --probe\n%s", USAGE);
+        return 2;
+    }
+    uint32_t steps = steps_arg ? (uint32_t)strtoul(steps_arg, NULL, 10) : 2000;
     (void)rt; /* unused without a clock */
     int is_box = strcmp(mesh, "box") == 0;
     size_t n = 0, t = 0, bytes = 0;
@@ -303,9 +383,11 @@ int main(int argc, char **argv) {
             fixed[jk] = 11 * jk;
             tip[jk] = 11 * jk + 10;
         }
-        CHECK(corofem_fix_nodes(scene, fixed, 9));
-        CHECK(corofem_grab(scene, tip, 9, 500.0f));
-    } else {
+        if (!with_probe) {
+            CHECK(corofem_fix_nodes(scene, fixed, 9));
+            CHECK(corofem_grab(scene, tip, 9, 500.0f));
+        }
+    } else if (!with_probe) {
         const uint32_t fixed[3] = {3, 39, 64};
         const uint32_t tip[5] = {80, 81, 78, 83, 82};
         CHECK(corofem_fix_nodes(scene, fixed, 3));
@@ -316,9 +398,63 @@ int main(int argc, char **argv) {
     corofem_stats stats;
     CHECK(corofem_tool_target(scene, start));
     /* %lu, not %zu: newlib's printf does not know %zu. */
-    printf("scene %s: %lu nodes, %lu tets, %lu bytes\n", is_box ? "box" : mesh, (unsigned long)n,
-           (unsigned long)t, (unsigned long)bytes);
-    if (is_box) {
+    printf("scene %s%s: %lu nodes, %lu tets, %lu bytes\n", is_box ? "box" : mesh,
+           with_probe ? (with_friction ? " with a probe and friction" : " with a probe") : "",
+           (unsigned long)n, (unsigned long)t, (unsigned long)bytes);
+
+    /* The probe scene: one sphere in its own buffer, started above the
+     * pressed node (the box's node 84, or the liver's topmost), moved along
+     * probe_path each step. */
+    corofem_probes *probes = NULL;
+    int up = is_box ? 2 : 1; /* against gravity */
+    float c0[3] = {0.0f, 0.0f, 0.0f}, b[3] = {0.0f, 0.0f, 0.0f}, peak_push = 0.0f;
+    uint32_t pressed = 84, peak_step = 0, contacts = 0;
+    if (with_probe) {
+        size_t probe_bytes = 0;
+        corofem_status st = corofem_probes_bytes(1, &probe_bytes);
+        if (st == COROFEM_STATUS_UNSUPPORTED) {
+            printf("probe: not in this library\n");
+            return 0;
+        }
+        CHECK(st);
+        if (probe_bytes > sizeof probe_buffer) {
+            printf("error: a probe needs %lu bytes\n", (unsigned long)probe_bytes);
+            return 1;
+        }
+        /* The tray: every node within `tray` of the lowest (on the box, the
+         * bottom face), fixed. */
+        const float tray = is_box ? 0.0f : 0.03f;
+        float lowest = nodes[up];
+        for (uint32_t i = 1; i < n; i++) {
+            if (nodes[3 * i + up] < lowest) lowest = nodes[3 * i + up];
+        }
+        uint32_t n_tray = 0;
+        for (uint32_t i = 0; i < n; i++) {
+            if (nodes[3 * i + up] <= lowest + tray) on_tray[n_tray++] = i;
+        }
+        CHECK(corofem_fix_nodes(scene, on_tray, n_tray));
+        printf("probe: %lu nodes on the tray\n", (unsigned long)n_tray);
+        if (!is_box) { /* the first node of the largest height */
+            pressed = 0;
+            for (uint32_t i = 1; i < n; i++) {
+                if (nodes[3 * i + up] > nodes[3 * pressed + up]) pressed = i;
+            }
+        }
+        c0[0] = nodes[3 * pressed], c0[1] = nodes[3 * pressed + 1], c0[2] = nodes[3 * pressed + 2];
+        /* Start 2 mm above the node; deepest with the sphere's bottom 5 mm
+         * below it. */
+        b[0] = c0[0], b[1] = c0[1], b[2] = c0[2];
+        c0[up] = c0[up] + (PROBE_RADIUS + 0.002f);
+        b[up] = b[up] + (PROBE_RADIUS - 0.005f);
+        settings.gravity[0] = 0.0f, settings.gravity[1] = 0.0f, settings.gravity[2] = 0.0f;
+        CHECK(corofem_set_settings(scene, &settings));
+        CHECK(corofem_probes_init(probe_buffer, sizeof probe_buffer, 1, &probes));
+        CHECK(corofem_probes_add_sphere(probes, PROBE_RADIUS, c0, NULL));
+        if (with_friction) CHECK(corofem_probe_set_friction(probes, 0, 0.6f, 0.4f));
+        printf("probe: sphere of %.3f m over node %lu, %lu bytes\n", (double)PROBE_RADIUS,
+               (unsigned long)pressed, (unsigned long)probe_bytes);
+    }
+    if (is_box && !with_probe) {
         int r = bind_skin(scene);
         if (r == 1) return 1;
         if (r == 2) printf("surface: not in this library\n");
@@ -326,20 +462,47 @@ int main(int argc, char **argv) {
 
 #if HAVE_CLOCK
     if (steps > sizeof step_ns / sizeof step_ns[0]) steps = sizeof step_ns / sizeof step_ns[0];
+    /* The real-time set-up of capi/examples/rt_loop.rs, as far as it needs
+     * no privileges: memory locked (reported if refused), the timings'
+     * pages touched before the loop, and on Linux timers that fire at the
+     * deadline instead of up to 50 us late; the loop sleeps until 50 us
+     * before each deadline and spins the rest. */
+    const int64_t spin = 50000;
+    int locked = 0, slack = 0;
+    memset(step_ns, 0xff, sizeof step_ns);
+    if (rt) {
+        locked = mlockall(MCL_CURRENT | MCL_FUTURE) == 0;
+#if defined(__linux__)
+        slack = prctl(PR_SET_TIMERSLACK, 1UL, 0UL, 0UL, 0UL) == 0;
+#endif
+    }
     int64_t period = 1000000, deadline = now_ns() + period;
     uint32_t misses = 0;
 #endif
     for (uint32_t i = 0; i < steps; i++) {
         float a = triangle(i + 1);
         float target[3] = {start[0] + a * pull[0], start[1] + a * pull[1], start[2] + a * pull[2]};
+        float at[3];
+        if (with_probe) probe_path(c0, b, i + 1, at);
 #if HAVE_CLOCK
         if (rt) {
-            struct timespec ts = {(time_t)(deadline / 1000000000), (long)(deadline % 1000000000)};
+            int64_t wake = deadline - spin;
+            struct timespec ts = {(time_t)(wake / 1000000000), (long)(wake % 1000000000)};
             clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, NULL);
+            while (now_ns() < deadline) {
+            }
         }
         int64_t t0 = now_ns();
 #endif
-        CHECK(corofem_step_haptic(scene, target, force, &stats));
+        if (with_probe) {
+            /* One period of a device loop: the device's position in, a
+             * step, the force to render out. */
+            CHECK(corofem_probe_move_to(probes, 0, at, NULL));
+            CHECK(corofem_step_probes(scene, probes, &stats, NULL, NULL));
+            CHECK(corofem_probe_force(probes, 0, force, &contacts));
+        } else {
+            CHECK(corofem_step_haptic(scene, target, force, &stats));
+        }
 #if HAVE_CLOCK
         int64_t t1 = now_ns();
         step_ns[i] = t1 - t0;
@@ -349,6 +512,8 @@ int main(int argc, char **argv) {
             while (deadline < t1) deadline += period; /* skip missed periods */
         }
 #endif
+        if (with_probe && force[up] > peak_push) peak_push = force[up], peak_step = i + 1;
+
     }
 
     uint64_t hash = 0;
@@ -357,15 +522,30 @@ int main(int argc, char **argv) {
     /* 64-bit values printed as 32-bit halves: newlib's <inttypes.h> lacks PRIx64. */
     printf("steps %lu, time %.3f s, cg residual %.3e, inverted %" PRIu32 "\n", (unsigned long)stats.steps,
            stats.time, (double)stats.cg_residual, stats.inverted);
-    printf("tool force %.6f %.6f %.6f N\n", (double)force[0], (double)force[1], (double)force[2]);
+    if (with_probe) {
+        printf("probe force %.6f %.6f %.6f N, %" PRIu32 " contacts; largest push %.6f N at step %" PRIu32
+               "\n",
+               (double)force[0], (double)force[1], (double)force[2], contacts, (double)peak_push,
+               peak_step);
+        printf("support force %.6f %.6f %.6f N, %" PRIu32 " contacts in all\n",
+               (double)stats.support_force[0], (double)stats.support_force[1],
+               (double)stats.support_force[2], stats.contacts);
+    } else {
+        printf("tool force %.6f %.6f %.6f N\n", (double)force[0], (double)force[1], (double)force[2]);
+    }
     printf("node 0 at %.6f %.6f %.6f m\n", (double)positions[0], (double)positions[1],
            (double)positions[2]);
 #if HAVE_CLOCK
     if (steps > 0) {
+        /* Nearest-rank percentiles, as rt_loop's. */
         qsort(step_ns, steps, sizeof step_ns[0], cmp_i64);
-        printf("step time: median %.1f us, p99 %.1f us, max %.1f us", step_ns[steps / 2] / 1e3,
-               step_ns[(size_t)steps * 99 / 100] / 1e3, step_ns[steps - 1] / 1e3);
-        if (rt) printf(", deadline misses %" PRIu32 " of %" PRIu32, misses, steps);
+        printf("step time: p50 %.1f us, p99 %.1f us, p99.9 %.1f us, max %.1f us",
+               pct(step_ns, steps, 500) / 1e3, pct(step_ns, steps, 990) / 1e3,
+               pct(step_ns, steps, 999) / 1e3, step_ns[steps - 1] / 1e3);
+        if (rt) {
+            printf(", deadline misses %" PRIu32 " of %" PRIu32 " (mlockall %s, timer slack 1 ns %s)",
+                   misses, steps, locked ? "yes" : "refused", slack ? "yes" : "no");
+        }
         printf("\n");
     }
 #endif

@@ -72,6 +72,10 @@ enum corofem_status
     COROFEM_STATUS_VERTEX_TOO_FAR = -18,
     // A surface triangle repeats a vertex or has collinear corners.
     COROFEM_STATUS_DEGENERATE_TRIANGLE = -19,
+    // A probe's first step (after it was added or placed) would start with
+    // a node of the body's surface inside it: `corofem_step_probes` names
+    // the probe and the node.
+    COROFEM_STATUS_PROBE_INSIDE_BODY = -20,
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -127,6 +131,10 @@ typedef enum corofem_preconditioner corofem_preconditioner;
 typedef uint32_t corofem_preconditioner;
 #endif // __STDC_VERSION__ >= 202311L
 #endif // __cplusplus
+
+// The probe set's handle: the front of the caller's probe buffer. Opaque
+// to C.
+typedef struct corofem_probes corofem_probes;
 
 // The scene handle: the front of the caller's buffer. Opaque to C.
 typedef struct corofem_scene corofem_scene;
@@ -195,13 +203,19 @@ typedef struct {
     float cg_residual;
     // Inverted elements at the start of the last step.
     uint32_t inverted;
-    // Nodes held by the ground during the last step.
+    // Nodes held by the ground or a probe during the last step.
     uint32_t contacts;
     // Force the body exerts on the tool (N): what a haptic device renders.
     float tool_force[3];
     // Energy the guard took out before the last step (J): what the step
     // before it made while nothing did work on the body.
     float energy_removed;
+    // Force the supports exerted on the body during the last step (N): the
+    // fixed nodes' and the ground's, friction included, as a force plate
+    // under the body reads it, with the sign of the force on the body (a
+    // body at rest: −(weight + loads + probe forces on it)). The probes'
+    // forces are not in it (`corofem_probe_force`).
+    float support_force[3];
 } corofem_stats;
 
 // What `corofem_bind_surface` found.
@@ -636,6 +650,194 @@ corofem_status corofem_update_surface(corofem_scene *scene,
                                       size_t positions_len,
                                       float *out_normals,
                                       size_t normals_len);
+
+// Sets Coulomb friction between the body and the ground: a static
+// coefficient (the ratio of tangential to normal contact impulse below
+// which a node sticks to the ground) and a kinetic one (the ratio while it
+// slides). Both finite and ≥ 0, the static one at least the kinetic one,
+// and the kinetic one > 0 if the static one is; `0, 0` (the default) is
+// frictionless. `COROFEM_STATUS_INVALID_ARGUMENT` otherwise, and nothing
+// changes. `COROFEM_STATUS_UNSUPPORTED` if the library was built without
+// `friction`.
+//
+// # Safety
+//
+// `scene` is a handle (or null).
+corofem_status corofem_set_ground_friction(corofem_scene *scene,
+                                           float static_coefficient,
+                                           float kinetic_coefficient);
+
+// Writes to `*out_bytes` how many bytes a set of up to `max_probes` probes
+// (1 to 65 535) needs: a probe's shape, its pose at the start and the end
+// of the next step, its force and friction (100 bytes each, 92 without
+// `friction`), a header and a few bytes of slack, so that a buffer of that
+// size works at any address. `COROFEM_STATUS_UNSUPPORTED` if the library was built
+// without `probe`.
+//
+// # Safety
+//
+// `out_bytes` is null or writable.
+corofem_status corofem_probes_bytes(size_t max_probes, size_t *out_bytes);
+
+// Initialises an empty set of up to `max_probes` probes in the caller's
+// `buffer` of `buffer_bytes` bytes (at least `corofem_probes_bytes`, at any
+// address) and writes its handle, which points into the buffer, to
+// `*out_probes`. The buffer must stay in place, unused by anything else,
+// while the set is used; initialising it again empties it. A set belongs
+// to no scene: `corofem_step_probes` steps a scene with it. Nothing is
+// allocated. `COROFEM_STATUS_UNSUPPORTED` if the library was built without
+// `probe`.
+//
+// # Safety
+//
+// `buffer` is null or valid for writes of `buffer_bytes` bytes;
+// `out_probes` is null or writable and outside the buffer.
+corofem_status corofem_probes_init(void *buffer,
+                                   size_t buffer_bytes,
+                                   size_t max_probes,
+                                   corofem_probes **out_probes);
+
+// Adds a sphere of `radius` (m, finite, > 0) centred at `position` (3
+// floats, m) to the set and writes its index (0 for the first, then 1, …)
+// to `*out_index` (may be null). It starts frictionless and at rest where
+// it is made; its first step checks that it does not start inside the body
+// (`COROFEM_STATUS_PROBE_INSIDE_BODY`). `COROFEM_STATUS_CAPACITY` when the
+// set is full; `COROFEM_STATUS_INVALID_ARGUMENT` for a bad radius or a
+// position that is not finite; on error the set is unchanged.
+// `COROFEM_STATUS_UNSUPPORTED` if the library was built without `probe`.
+//
+// # Safety
+//
+// `probes` is a probe set handle (or null); `position` points to 3 floats;
+// `out_index` is null or writable.
+corofem_status corofem_probes_add_sphere(corofem_probes *probes,
+                                         float radius,
+                                         const float *position,
+                                         size_t *out_index);
+
+// Adds a capsule to the set: the points within `radius` (m, finite, > 0)
+// of the segment of half length `half_length` (m, finite, ≥ 0) through
+// `position` (3 floats, m) along `axis` (3 floats, any length > 0), a
+// tool's shaft or a fingertip. Writes its index to `*out_index` (may be
+// null). As `corofem_probes_add_sphere` otherwise; a half length of 0 is a
+// sphere.
+//
+// # Safety
+//
+// `probes` is a probe set handle (or null); `position` and `axis` point to
+// 3 floats; `out_index` is null or writable.
+corofem_status corofem_probes_add_capsule(corofem_probes *probes,
+                                          float radius,
+                                          float half_length,
+                                          const float *position,
+                                          const float *axis,
+                                          size_t *out_index);
+
+// Writes the number of probes in the set to `*out_count`.
+// `COROFEM_STATUS_UNSUPPORTED` if the library was built without `probe`.
+//
+// # Safety
+//
+// `probes` is a probe set handle (or null); `out_count` is null or
+// writable.
+corofem_status corofem_probes_count(corofem_probes *probes, size_t *out_count);
+
+// Sets the pose probe `index` reaches at the end of the next step: its
+// centre `position` (3 floats, m; a capsule's segment midpoint) and, for a
+// capsule, its `axis` (3 floats, any length > 0; null keeps the current
+// one, as a sphere needs no axis). The step moves it there from where the
+// last step left it, sweeping the body's surface on the way. This is
+// where a haptic device's position goes each period.
+// `COROFEM_STATUS_INVALID_ARGUMENT` for a pose that is not finite or an
+// axis of zero length, `COROFEM_STATUS_INDEX_OUT_OF_RANGE` for an index
+// the set does not hold; on error the probe is unchanged.
+// `COROFEM_STATUS_UNSUPPORTED` if the library was built without `probe`.
+//
+// # Safety
+//
+// `probes` is a probe set handle (or null); `position` points to 3 floats,
+// `axis` is null or points to 3 floats.
+corofem_status corofem_probe_move_to(corofem_probes *probes,
+                                     size_t index,
+                                     const float *position,
+                                     const float *axis);
+
+// Places probe `index` at `position` and `axis` (as in
+// `corofem_probe_move_to`) now, without a sweep: the next step starts and
+// ends there, and checks, as a new probe's first step does, that it does
+// not start inside the body. For setting a scene up or taking a probe
+// away; a device's motion goes through `corofem_probe_move_to`.
+// `COROFEM_STATUS_UNSUPPORTED` if the library was built without `probe`.
+//
+// # Safety
+//
+// As `corofem_probe_move_to`.
+corofem_status corofem_probe_place(corofem_probes *probes,
+                                   size_t index,
+                                   const float *position,
+                                   const float *axis);
+
+// Sets Coulomb friction between probe `index` and the body, as
+// `corofem_set_ground_friction` for the ground: a node the probe holds
+// sticks to it and is dragged along while its tangential impulse is within
+// `static_coefficient` times its normal one, and slides on it against a
+// force of `kinetic_coefficient` times its normal force beyond that.
+// `COROFEM_STATUS_INVALID_ARGUMENT` for bad coefficients,
+// `COROFEM_STATUS_INDEX_OUT_OF_RANGE` for an index the set does not hold;
+// on error the probe is unchanged. `COROFEM_STATUS_UNSUPPORTED` if the
+// library was built without `probe` or `friction`.
+//
+// # Safety
+//
+// `probes` is a probe set handle (or null).
+corofem_status corofem_probe_set_friction(corofem_probes *probes,
+                                          size_t index,
+                                          float static_coefficient,
+                                          float kinetic_coefficient);
+
+// Writes the force the body exerted on probe `index` during the last step
+// (3 floats, N; friction included), what a haptic device renders, to
+// `out_force`, and the number of nodes it held to `*out_contacts`; either
+// may be null. Zero before the probe's first step.
+// `COROFEM_STATUS_UNSUPPORTED` if the library was built without `probe`.
+//
+// # Safety
+//
+// `probes` is a probe set handle (or null); `out_force` is null or
+// writable for 3 floats, `out_contacts` null or writable.
+corofem_status corofem_probe_force(corofem_probes *probes,
+                                   size_t index,
+                                   float *out_force,
+                                   uint32_t *out_contacts);
+
+// Advances the scene by one step with every probe of the set pressing on
+// the body: each moves from where the last step left it to the pose set
+// by `corofem_probe_move_to`, the surface nodes it reaches are held on it
+// within the implicit solve (with its friction), and each gets the force
+// the body exerted on it (`corofem_probe_force`). The tool, if one is
+// grabbed, stays at its target, as in `corofem_step`. The statistics go to
+// `*out_stats` (may be null): `contacts` counts the nodes held by the
+// probes and the ground, `support_force` is what the fixed nodes and the
+// ground exerted.
+//
+// On `COROFEM_STATUS_PROBE_INSIDE_BODY` a probe's first step (after it was
+// added or placed) would start with a node of the body's surface inside
+// it: the probe's index goes to `*out_probe` and the node's to
+// `*out_node` (either may be null). On that error, on
+// `COROFEM_STATUS_DIVERGED` and on every other error, neither the scene
+// nor the probes change. `COROFEM_STATUS_UNSUPPORTED` if the library was
+// built without `probe`.
+//
+// # Safety
+//
+// `scene` is a handle (or null); `probes` is a probe set handle (or
+// null); the outputs are null or writable. The probe buffer lies outside
+// the scene buffer; no output lies inside either or overlaps another.
+corofem_status corofem_step_probes(corofem_scene *scene,
+                                   corofem_probes *probes,
+                                   corofem_stats *out_stats,
+                                   size_t *out_probe,
+                                   size_t *out_node);
 
 #ifdef __cplusplus
 }  // extern "C"

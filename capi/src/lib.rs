@@ -18,6 +18,14 @@
 //!  corofem_bind_surface(s, xyz, V, tris, M, reach, buf, bytes, scratch, len,
 //!                       &surf, &stats, &where)
 //!  corofem_update_surface(s, surf, out_xyz, 3V, out_normals, 3V)
+//!
+//!  probes (feature `probe`; friction with `friction`), in caller memory:
+//!  corofem_probes_bytes(P, &bytes) / corofem_probes_init(buf, bytes, P, &set)
+//!  corofem_probes_add_sphere(set, r, xyz, &i) / corofem_probes_add_capsule
+//!  corofem_probe_set_friction(set, i, mu_s, mu_k), corofem_set_ground_friction
+//!  loop: corofem_probe_move_to(set, i, xyz, axis)
+//!        corofem_step_probes(s, set, &stats, &probe, &node)
+//!        corofem_probe_force(set, i, force, &contacts)             1 kHz
 //! ```
 //!
 //! Every function returns a [`Status`]: `COROFEM_STATUS_OK` (0) or a negative
@@ -47,6 +55,7 @@ extern crate std;
 
 mod api;
 mod arena;
+mod probe;
 mod ptr;
 mod status;
 mod surface;
@@ -54,6 +63,7 @@ mod types;
 
 pub use api::*;
 pub use arena::{scene_bytes, SceneHandle, Slots, COROFEM_MAX_NODES};
+pub use probe::ProbesHandle;
 pub use status::Status;
 pub use surface::SurfaceHandle;
 pub use types::{

@@ -60,6 +60,10 @@ pub enum Status {
     VertexTooFar = -18,
     /// A surface triangle repeats a vertex or has collinear corners.
     DegenerateTriangle = -19,
+    /// A probe's first step (after it was added or placed) would start with
+    /// a node of the body's surface inside it: `corofem_step_probes` names
+    /// the probe and the node.
+    ProbeInsideBody = -20,
 }
 
 impl Status {
@@ -87,6 +91,7 @@ impl Status {
             -17 => c"step diverged",
             -18 => c"surface vertex too far outside the mesh",
             -19 => c"degenerate surface triangle",
+            -20 => c"a probe starts inside the body",
             _ => c"unknown status code",
         }
     }
@@ -103,8 +108,9 @@ impl Status {
 pub struct Failure {
     /// The code.
     pub status: Status,
-    /// The offending element (element errors), node (node errors), surface
-    /// vertex (vertex errors) or surface triangle (triangle errors).
+    /// The offending element (element errors), node (node errors and a
+    /// probe that starts inside the body), surface vertex (vertex errors) or
+    /// surface triangle (triangle errors).
     pub at: Option<usize>,
 }
 
@@ -161,7 +167,10 @@ impl From<StepError> for Failure {
             StepError::NonFiniteInput => Status::InvalidArgument.into(),
             StepError::Diverged => Status::Diverged.into(),
             StepError::TooManyProbes => Status::Capacity.into(),
-            StepError::ProbeInsideBody { .. } => Status::InvalidArgument.into(),
+            StepError::ProbeInsideBody { node, .. } => Self {
+                status: Status::ProbeInsideBody,
+                at: index(node),
+            },
         }
     }
 }

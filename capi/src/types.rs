@@ -180,13 +180,19 @@ pub struct Stats {
     pub cg_residual: f32,
     /// Inverted elements at the start of the last step.
     pub inverted: u32,
-    /// Nodes held by the ground during the last step.
+    /// Nodes held by the ground or a probe during the last step.
     pub contacts: u32,
     /// Force the body exerts on the tool (N): what a haptic device renders.
     pub tool_force: [f32; 3],
     /// Energy the guard took out before the last step (J): what the step
     /// before it made while nothing did work on the body.
     pub energy_removed: f32,
+    /// Force the supports exerted on the body during the last step (N): the
+    /// fixed nodes' and the ground's, friction included, as a force plate
+    /// under the body reads it, with the sign of the force on the body (a
+    /// body at rest: −(weight + loads + probe forces on it)). The probes'
+    /// forces are not in it (`corofem_probe_force`).
+    pub support_force: [f32; 3],
 }
 
 /// What `corofem_bind_surface` found.

@@ -1302,3 +1302,391 @@ mod surface {
         assert_eq!(ok.call(), Status::InvalidHandle);
     }
 }
+
+/// Without the feature `probe` the probe functions are there and say so;
+/// without `friction`, so do the friction setters.
+#[cfg(not(feature = "probe"))]
+#[test]
+fn probes_are_unsupported_without_the_feature() {
+    let f = Fixture::built();
+    let mut bytes = 0;
+    let mut buf = [0u64; 64];
+    let mut p = null_mut();
+    let (at, axis) = ([0.0f32, 0.0, 2.0], [0.0f32, 0.0, 1.0]);
+    let mut force = [0.0f32; 3];
+    // SAFETY: a live handle and locals; nothing is read or written.
+    unsafe {
+        assert_eq!(corofem_probes_bytes(1, &mut bytes), Status::Unsupported);
+        let st = corofem_probes_init(buf.as_mut_ptr().cast(), 512, 1, &mut p);
+        assert_eq!(st, Status::Unsupported);
+        assert!(p.is_null());
+        let st = corofem_probes_add_sphere(p, 0.1, at.as_ptr(), null_mut());
+        assert_eq!(st, Status::Unsupported);
+        let st = corofem_probes_add_capsule(p, 0.1, 0.1, at.as_ptr(), axis.as_ptr(), null_mut());
+        assert_eq!(st, Status::Unsupported);
+        assert_eq!(corofem_probes_count(p, &mut bytes), Status::Unsupported);
+        let st = corofem_probe_move_to(p, 0, at.as_ptr(), null());
+        assert_eq!(st, Status::Unsupported);
+        let st = corofem_probe_place(p, 0, at.as_ptr(), null());
+        assert_eq!(st, Status::Unsupported);
+        assert_eq!(
+            corofem_probe_set_friction(p, 0, 0.5, 0.5),
+            Status::Unsupported
+        );
+        let st = corofem_probe_force(p, 0, force.as_mut_ptr(), null_mut());
+        assert_eq!(st, Status::Unsupported);
+        let st = corofem_step_probes(f.h, p, null_mut(), null_mut(), null_mut());
+        assert_eq!(st, Status::Unsupported);
+    }
+}
+
+#[cfg(not(feature = "friction"))]
+#[test]
+fn friction_is_unsupported_without_the_feature() {
+    let f = Fixture::built();
+    let before = f.hash();
+    // SAFETY: a live handle.
+    unsafe {
+        assert_eq!(
+            corofem_set_ground_friction(f.h, 0.5, 0.5),
+            Status::Unsupported
+        );
+    }
+    assert_eq!(f.hash(), before);
+}
+
+/// Probes and friction through the C functions: every bad input is a
+/// status code and changes neither the scene nor the probes.
+#[cfg(all(feature = "probe", feature = "friction"))]
+mod probes {
+    use super::*;
+
+    /// A probe set in a heap buffer (8-aligned) and its handle.
+    struct Set {
+        /// Owns the memory the handle points into.
+        _buf: Vec<u64>,
+        p: *mut ProbesHandle,
+    }
+
+    impl Set {
+        fn new(capacity: usize) -> Self {
+            let mut bytes = 0;
+            // SAFETY: out-pointers to locals; the buffer outlives the handle.
+            unsafe {
+                assert_eq!(corofem_probes_bytes(capacity, &mut bytes), Status::Ok);
+                let mut buf = vec![0u64; bytes.div_ceil(8)];
+                let mut p = null_mut();
+                let st = corofem_probes_init(buf.as_mut_ptr().cast(), bytes, capacity, &mut p);
+                assert_eq!(st, Status::Ok);
+                Self { _buf: buf, p }
+            }
+        }
+
+        fn count(&self) -> usize {
+            let mut n = usize::MAX;
+            // SAFETY: a live handle, a local out-pointer.
+            assert_eq!(unsafe { corofem_probes_count(self.p, &mut n) }, Status::Ok);
+            n
+        }
+
+        fn force(&self, i: usize) -> ([f32; 3], u32) {
+            let (mut f, mut c) = ([0.0f32; 3], 0u32);
+            // SAFETY: a live handle, local out-pointers.
+            let st = unsafe { corofem_probe_force(self.p, i, f.as_mut_ptr(), &mut c) };
+            assert_eq!(st, Status::Ok);
+            (f, c)
+        }
+    }
+
+    /// The fixture's scene with its base (nodes 0, 1, 2 at z = 0) fixed,
+    /// without gravity (this soft metre-sized body would sag away from the
+    /// probe): node 3 at (0, 0, 1) and node 4 at (1, 1, 1) are free.
+    fn scene() -> Fixture {
+        let f = Fixture::built();
+        // SAFETY: a live handle and locals.
+        unsafe {
+            let st = corofem_fix_nodes(f.h, [0u32, 1, 2].as_ptr(), 3);
+            assert_eq!(st, Status::Ok);
+            let mut s = std::mem::zeroed::<Settings>();
+            assert_eq!(corofem_get_settings(f.h, &mut s), Status::Ok);
+            s.gravity = [0.0; 3];
+            assert_eq!(corofem_set_settings(f.h, &s), Status::Ok);
+        }
+        f
+    }
+
+    /// A sphere of 0.2 m, 0.1 m above node 3.
+    const ABOVE: [f32; 3] = [0.0, 0.0, 1.3];
+    const R: f32 = 0.2;
+
+    /// Steps `f` with `set`, its probe 0 pressing node 3 down by 1 mm a
+    /// step from `ABOVE` (it touches at step 100): the good sequence both
+    /// twins of the tests run.
+    fn press(f: &Fixture, set: &Set, steps: u32) {
+        for k in 1..=steps {
+            let at = [ABOVE[0], ABOVE[1], ABOVE[2] - 0.001 * k as f32];
+            // SAFETY: live handles and locals.
+            unsafe {
+                let st = corofem_probe_move_to(set.p, 0, at.as_ptr(), null());
+                assert_eq!(st, Status::Ok);
+                let st = corofem_step_probes(f.h, set.p, null_mut(), null_mut(), null_mut());
+                assert_eq!(st, Status::Ok, "step {k}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_probe_presses_and_reports_its_force() {
+        let f = scene();
+        let set = Set::new(1);
+        let mut stats = Stats::default();
+        // SAFETY: live handles and locals.
+        unsafe {
+            let st = corofem_probes_add_sphere(set.p, R, ABOVE.as_ptr(), null_mut());
+            assert_eq!(st, Status::Ok);
+            press(&f, &set, 150);
+            assert_eq!(corofem_last_stats(f.h, &mut stats), Status::Ok);
+        }
+        let (force, contacts) = set.force(0);
+        // Pressed 50 mm below node 3's rest height: the body pushes up.
+        assert!(force[2] > 0.0 && contacts >= 1, "{force:?} {contacts}");
+        assert_eq!(stats.contacts, contacts, "no ground: the probe's contacts");
+        // Without gravity only the probe pushes the body (down): the fixed
+        // base holds it up.
+        assert!(stats.support_force[2] > 0.0, "{stats:?}");
+    }
+
+    #[test]
+    fn bad_probe_inputs_change_nothing() {
+        // Twins: `f`/`set` get every bad call between good ones, `g`/`twin`
+        // only the good ones; they must end bit-identical.
+        let (f, g) = (scene(), scene());
+        let (set, twin) = (Set::new(2), Set::new(2));
+        let nan = [0.0, f32::NAN, 0.0f32];
+        let inf = [f32::INFINITY, 0.0, 0.0f32];
+        let zero = [0.0f32; 3];
+        let axis = [0.0f32, 0.0, 1.0];
+        // SAFETY: live handles; pointers are null, locals, misaligned or
+        // inside a buffer on purpose (refused before any access).
+        unsafe {
+            for s in [&set, &twin] {
+                let st = corofem_probes_add_sphere(s.p, R, ABOVE.as_ptr(), null_mut());
+                assert_eq!(st, Status::Ok);
+            }
+            press(&f, &set, 120);
+            press(&g, &twin, 120);
+            let (before, force) = (f.hash(), set.force(0));
+            // 20 mm past first touch at step 100: in contact.
+            assert!(force.0[2] > 0.0 && force.1 >= 1, "{force:?}");
+            let mut i = 7usize;
+            // Making probes: bad radius, half length, pose; null pointers.
+            for r in [0.0, -0.1, f32::NAN, f32::INFINITY] {
+                let st = corofem_probes_add_sphere(set.p, r, ABOVE.as_ptr(), &mut i);
+                assert_eq!(st, Status::InvalidArgument, "radius {r}");
+            }
+            for hl in [-0.1, f32::NAN, f32::INFINITY] {
+                let st =
+                    corofem_probes_add_capsule(set.p, R, hl, ABOVE.as_ptr(), axis.as_ptr(), &mut i);
+                assert_eq!(st, Status::InvalidArgument, "half length {hl}");
+            }
+            for (p, e) in [(nan, axis), (inf, axis), (ABOVE, zero), (ABOVE, nan)] {
+                let st = corofem_probes_add_capsule(set.p, R, 0.1, p.as_ptr(), e.as_ptr(), &mut i);
+                assert_eq!(st, Status::InvalidArgument, "{p:?} {e:?}");
+            }
+            let st = corofem_probes_add_sphere(set.p, R, null(), &mut i);
+            assert_eq!(st, Status::NullPointer);
+            let st = corofem_probes_add_sphere(null_mut(), R, ABOVE.as_ptr(), &mut i);
+            assert_eq!(st, Status::NullPointer);
+            // A handle that is not one: the scene's.
+            let st = corofem_probes_add_sphere(f.h.cast(), R, ABOVE.as_ptr(), &mut i);
+            assert_eq!(st, Status::InvalidHandle);
+            // Inputs and outputs inside the probe buffer.
+            let inside = set.p.cast::<u8>().add(64);
+            let st = corofem_probes_add_sphere(set.p, R, inside.cast(), &mut i);
+            assert_eq!(st, Status::Overlap);
+            let st = corofem_probes_add_sphere(set.p, R, ABOVE.as_ptr(), inside.cast());
+            assert_eq!(st, Status::Overlap);
+            assert_eq!(i, 7, "no output written on error");
+            assert_eq!(set.count(), 1);
+            // Moving and placing: bad poses and indices.
+            for (p, e) in [(nan, axis), (inf, axis), (ABOVE, zero), (ABOVE, inf)] {
+                let st = corofem_probe_move_to(set.p, 0, p.as_ptr(), e.as_ptr());
+                assert_eq!(st, Status::InvalidArgument, "{p:?} {e:?}");
+                let st = corofem_probe_place(set.p, 0, p.as_ptr(), e.as_ptr());
+                assert_eq!(st, Status::InvalidArgument, "{p:?} {e:?}");
+            }
+            let st = corofem_probe_move_to(set.p, 1, ABOVE.as_ptr(), null());
+            assert_eq!(st, Status::IndexOutOfRange, "slot 1 holds no probe yet");
+            let st = corofem_probe_place(set.p, usize::MAX, ABOVE.as_ptr(), null());
+            assert_eq!(st, Status::IndexOutOfRange);
+            let st = corofem_probe_move_to(set.p, 0, null(), null());
+            assert_eq!(st, Status::NullPointer);
+            // Friction: each rule of the coefficients.
+            for (s, k) in [
+                (0.3, 0.5),
+                (0.5, 0.0),
+                (-0.1, -0.1),
+                (f32::NAN, 0.2),
+                (0.5, f32::NAN),
+                (f32::INFINITY, 0.5),
+            ] {
+                let st = corofem_probe_set_friction(set.p, 0, s, k);
+                assert_eq!(st, Status::InvalidArgument, "{s} {k}");
+                let st = corofem_set_ground_friction(f.h, s, k);
+                assert_eq!(st, Status::InvalidArgument, "{s} {k}");
+            }
+            let st = corofem_probe_set_friction(set.p, 1, 0.5, 0.5);
+            assert_eq!(st, Status::IndexOutOfRange);
+            assert_eq!(
+                corofem_set_ground_friction(null_mut(), 0.5, 0.5),
+                Status::NullPointer
+            );
+            // Reading the force: misaligned, overlapping, out of range.
+            let mut out = [0.0f32; 4];
+            let odd = out.as_mut_ptr().cast::<u8>().add(1).cast::<f32>();
+            let st = corofem_probe_force(set.p, 0, odd, null_mut());
+            assert_eq!(st, Status::Misaligned);
+            let both = out.as_mut_ptr().add(2).cast::<u32>();
+            let st = corofem_probe_force(set.p, 0, out.as_mut_ptr(), both);
+            assert_eq!(st, Status::Overlap);
+            let st = corofem_probe_force(set.p, 1, out.as_mut_ptr(), null_mut());
+            assert_eq!(st, Status::IndexOutOfRange);
+            // Stepping: null and dead handles, overlapping outputs.
+            let (mut pi, mut ni) = (7usize, 7usize);
+            let st = corofem_step_probes(f.h, null_mut(), null_mut(), null_mut(), null_mut());
+            assert_eq!(st, Status::NullPointer);
+            let st = corofem_step_probes(null_mut(), set.p, null_mut(), null_mut(), null_mut());
+            assert_eq!(st, Status::NullPointer);
+            let st = corofem_step_probes(f.h, set.p, null_mut(), &mut pi, &mut pi);
+            assert_eq!(st, Status::Overlap);
+            let st = corofem_step_probes(f.h, set.p, inside.cast(), &mut pi, &mut ni);
+            assert_eq!(st, Status::Overlap);
+            // A second probe that starts inside the body (around node 3,
+            // which probe 0 presses): named, and nothing moves.
+            let at3 = [0.0f32, 0.0, 0.95];
+            let st = corofem_probes_add_sphere(set.p, 0.1, at3.as_ptr(), &mut i);
+            assert_eq!((st, i), (Status::Ok, 1));
+            let st = corofem_step_probes(f.h, set.p, null_mut(), &mut pi, &mut ni);
+            assert_eq!(st, Status::ProbeInsideBody);
+            assert_eq!((pi, ni), (1, 3));
+            assert_eq!(f.hash(), before, "no error changed the scene");
+            assert_eq!(set.force(0), force, "nor the probe");
+            // Placed away from the body, it no longer is; the twin gets the
+            // same probe there.
+            let away = [5.0f32, 5.0, 5.0];
+            assert_eq!(
+                corofem_probe_place(set.p, 1, away.as_ptr(), null()),
+                Status::Ok
+            );
+            let st = corofem_probes_add_sphere(twin.p, 0.1, away.as_ptr(), &mut i);
+            assert_eq!((st, i), (Status::Ok, 1));
+            // A full set refuses a third.
+            let st = corofem_probes_add_sphere(set.p, R, away.as_ptr(), &mut i);
+            assert_eq!(st, Status::Capacity);
+            assert_eq!(set.count(), 2);
+            // Friction set on both twins, then the same good steps.
+            for (h, s) in [(f.h, &set), (g.h, &twin)] {
+                assert_eq!(corofem_probe_set_friction(s.p, 0, 0.5, 0.3), Status::Ok);
+                assert_eq!(corofem_set_ground_friction(h, 0.0, 0.0), Status::Ok);
+            }
+        }
+        press(&f, &set, 150);
+        press(&g, &twin, 150);
+        assert_eq!(f.hash(), g.hash());
+        assert_eq!(set.force(0), twin.force(0));
+        assert_eq!(set.force(1), twin.force(1));
+    }
+
+    #[test]
+    fn bad_probe_buffers_are_refused() {
+        let mut bytes = 0;
+        let mut buf = vec![0u64; 64];
+        let mut p = null_mut();
+        // SAFETY: locals and a buffer of the stated size, or pointers
+        // refused before any access.
+        unsafe {
+            assert_eq!(corofem_probes_bytes(1, null_mut()), Status::NullPointer);
+            assert_eq!(corofem_probes_bytes(0, &mut bytes), Status::InvalidArgument);
+            assert_eq!(
+                corofem_probes_bytes(usize::from(u16::MAX) + 1, &mut bytes),
+                Status::Capacity
+            );
+            assert_eq!(corofem_probes_bytes(2, &mut bytes), Status::Ok);
+            assert!(bytes <= 512, "two probes in {bytes} bytes");
+            let b = buf.as_mut_ptr().cast::<core::ffi::c_void>();
+            assert_eq!(
+                corofem_probes_init(null_mut(), bytes, 2, &mut p),
+                Status::NullPointer
+            );
+            assert_eq!(
+                corofem_probes_init(b, bytes - 1, 2, &mut p),
+                Status::BufferTooSmall
+            );
+            assert_eq!(
+                corofem_probes_init(b, bytes, 2, null_mut()),
+                Status::NullPointer
+            );
+            let out_inside = b.cast::<u8>().add(8).cast();
+            assert_eq!(
+                corofem_probes_init(b, bytes, 2, out_inside),
+                Status::Overlap
+            );
+            assert!(p.is_null(), "no handle written on error");
+            // At an odd address the same size works.
+            let odd = b.cast::<u8>().add(1).cast();
+            assert_eq!(corofem_probes_init(odd, bytes, 2, &mut p), Status::Ok);
+            let at = [0.0f32, 0.0, 3.0];
+            let st = corofem_probes_add_sphere(p, 0.1, at.as_ptr(), null_mut());
+            assert_eq!(st, Status::Ok);
+            // Initialising again empties the set.
+            let mut n = 9;
+            assert_eq!(corofem_probes_count(p, &mut n), Status::Ok);
+            assert_eq!(n, 1);
+            assert_eq!(corofem_probes_init(odd, bytes, 2, &mut p), Status::Ok);
+            assert_eq!(corofem_probes_count(p, &mut n), Status::Ok);
+            assert_eq!(n, 0);
+            // A copy of the set elsewhere is not a set.
+            let mut copy = buf.clone();
+            let moved = copy
+                .as_mut_ptr()
+                .cast::<u8>()
+                .add(p as usize - buf.as_ptr() as usize);
+            assert_eq!(
+                corofem_probes_count(moved.cast(), &mut n),
+                Status::InvalidHandle
+            );
+        }
+    }
+
+    #[test]
+    fn a_probe_set_inside_the_scene_buffer_is_refused() {
+        // A scene buffer with spare room at its end, where a probe set
+        // is made: the scene never uses it, but a step refuses the overlap.
+        let (n, t) = (8, 4);
+        let (mut bytes, mut pbytes) = (0, 0);
+        // SAFETY: locals and buffers of the stated sizes.
+        unsafe {
+            assert_eq!(corofem_scene_bytes(n, t, &mut bytes), Status::Ok);
+            assert_eq!(corofem_probes_bytes(1, &mut pbytes), Status::Ok);
+            let total = bytes + pbytes + 8;
+            let mut buf = vec![0u64; total.div_ceil(8)];
+            let mut h = null_mut();
+            let st = corofem_scene_init(buf.as_mut_ptr().cast(), total, n, t, &mut h);
+            assert_eq!(st, Status::Ok);
+            let f = Fixture { buf: Vec::new(), h };
+            assert_eq!(f.build(&NODES, &TETS, 0).0, Status::Ok);
+            let tail = buf.as_mut_ptr().cast::<u8>().add(bytes + 8);
+            let mut p = null_mut();
+            assert_eq!(
+                corofem_probes_init(tail.cast(), pbytes, 1, &mut p),
+                Status::Ok
+            );
+            let before = f.hash();
+            let st = corofem_step_probes(h, p, null_mut(), null_mut(), null_mut());
+            assert_eq!(st, Status::Overlap);
+            assert_eq!(f.hash(), before);
+            drop(f);
+            drop(buf);
+        }
+    }
+}

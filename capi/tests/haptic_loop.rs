@@ -297,3 +297,305 @@ fn liver_with_two_level_same_hash_from_rust_and_c() {
     let mass = run_rust(&liver_def(&path), STEPS).0;
     assert_ne!(rust, mass);
 }
+
+/// The probe scenes of the C example (`--probe`, `--friction`): a 6 mm
+/// sphere pressed into the body from above, slid and lifted, instead of
+/// the tool; the body held by a tray, without gravity.
+#[cfg(feature = "probe")]
+mod probe_scene {
+    use super::*;
+
+    use corofem_capi::ProbesHandle;
+    use corofem_core::{Friction, Probe};
+
+    const RADIUS: f32 = 0.006;
+
+    /// The axis against gravity and the pressed node, as the C example
+    /// chooses them: the box's node 84, or the liver's first node of the
+    /// largest height.
+    fn pressed(d: &Def, is_box: bool) -> (usize, usize) {
+        if is_box {
+            return (2, 84);
+        }
+        let mut p = 0;
+        for (i, x) in d.nodes.iter().enumerate().skip(1) {
+            if x[1] > d.nodes[p][1] {
+                p = i;
+            }
+        }
+        (1, p)
+    }
+
+    /// The C example's probe scene of `d`: no gravity, the nodes within
+    /// 3 cm of the lowest (the box's bottom face) fixed instead of the
+    /// scene's; the probe's start 2 mm above the pressed node and its
+    /// deepest point 5 mm below it (the C example's float operations, in
+    /// its order).
+    fn scene(d: &Def, is_box: bool) -> (Def, usize, [f32; 3], [f32; 3]) {
+        let (up, node) = pressed(d, is_box);
+        let tray = if is_box { 0.0f32 } else { 0.03 };
+        let lowest = d.nodes.iter().map(|x| x[up]).fold(d.nodes[0][up], f32::min);
+        let fixed = (0..d.nodes.len() as u32)
+            .filter(|&i| d.nodes[i as usize][up] <= lowest + tray)
+            .collect();
+        let settings = corofem_core::Settings {
+            gravity: [0.0; 3],
+            ..d.settings
+        };
+        let (mut c0, mut b) = (d.nodes[node], d.nodes[node]);
+        c0[up] += RADIUS + 0.002;
+        b[up] += RADIUS - 0.005;
+        let def = Def {
+            nodes: d.nodes.clone(),
+            tets: d.tets.clone(),
+            fixed,
+            settings,
+            tip: Vec::new(),
+            ..*d
+        };
+        (def, up, c0, b)
+    }
+
+    /// The C example's `probe_path`: the centre at the end of step `step`.
+    fn path(c0: [f32; 3], b: [f32; 3], step: u32) -> [f32; 3] {
+        let slide = 0.015f32;
+        let k = (step - 1) % 1200 + 1;
+        let (s, side) = if k <= 300 {
+            (k as f32 / 300.0, 0.0)
+        } else if k <= 800 {
+            (1.0, slide * ((k - 300) as f32 / 500.0))
+        } else if k <= 1100 {
+            ((1100 - k) as f32 / 300.0, slide)
+        } else {
+            (0.0, slide * ((1200 - k) as f32 / 100.0))
+        };
+        let mut c = [0.0f32; 3];
+        for i in 0..3 {
+            c[i] = c0[i] + (b[i] - c0[i]) * s;
+        }
+        c[0] += side;
+        c
+    }
+
+    /// What a run records: the hash, the final force on the probe, its
+    /// largest push against the pressing direction, and the sum of its
+    /// force along x (the slide's direction) over the first slide, steps
+    /// 301 to 800 (N; times 1 ms, the impulse).
+    #[derive(Debug, PartialEq)]
+    struct Run {
+        hash: u64,
+        force: [f32; 3],
+        peak_push: f32,
+        slide_x: f32,
+    }
+
+    /// Adds step `k`'s force `f` to `run`.
+    fn track(run: &mut Run, up: usize, k: u32, f: [f32; 3]) {
+        run.peak_push = run.peak_push.max(f[up]);
+        if (301..=800).contains(&k) {
+            run.slide_x += f[0];
+        }
+        run.force = f;
+    }
+
+    fn empty() -> Run {
+        Run {
+            hash: 0,
+            force: [0.0; 3],
+            peak_push: 0.0,
+            slide_x: 0.0,
+        }
+    }
+
+    fn friction(on: bool) -> Option<(f32, f32)> {
+        on.then_some((0.6, 0.4))
+    }
+
+    /// Through the Rust API.
+    fn run_rust(d: &Def, is_box: bool, mu: Option<(f32, f32)>, steps: u32) -> Run {
+        let (d, up, c0, b) = scene(d, is_box);
+        let mut s = corofem_core::VecScene::with_capacity(d.nodes.len(), d.tets.len());
+        s.build(&d.nodes, &d.tets, &d.material, BuildOptions::default())
+            .unwrap();
+        s.set_settings(d.settings).unwrap();
+        s.fix_nodes(&d.fixed).unwrap();
+        let mut probes = [Probe::sphere(RADIUS, c0).unwrap()];
+        if let Some((st, kin)) = mu {
+            probes[0].set_friction(Friction::new(st, kin).unwrap());
+        }
+        let mut run = empty();
+        for i in 0..steps {
+            probes[0]
+                .move_to(path(c0, b, i + 1), [0.0, 0.0, 1.0])
+                .unwrap();
+            s.step_with_probes(&mut probes).unwrap();
+            track(&mut run, up, i + 1, probes[0].force());
+        }
+        run.hash = s.state_hash();
+        run
+    }
+
+    /// Through the C functions, the scene and the probes each in a heap
+    /// buffer at an odd address.
+    fn run_capi(d: &Def, is_box: bool, mu: Option<(f32, f32)>, steps: u32) -> Run {
+        let (d, up, c0, b) = scene(d, is_box);
+        let d = &d;
+        let (n, t) = (d.nodes.len(), d.tets.len());
+        // SAFETY (whole function): every pointer is a live local or a
+        // slice of the stated length; the buffers outlive the handles.
+        unsafe {
+            let mut bytes = 0usize;
+            assert_eq!(
+                corofem_capi::corofem_scene_bytes(n, t, &mut bytes),
+                Status::Ok
+            );
+            let mut buf = vec![0u8; bytes + 1];
+            let mut h = std::ptr::null_mut();
+            let st = corofem_capi::corofem_scene_init(
+                buf.as_mut_ptr().add(1).cast(),
+                bytes,
+                n,
+                t,
+                &mut h,
+            );
+            assert_eq!(st, Status::Ok);
+            let mat = Material {
+                young: d.material.young,
+                poisson: d.material.poisson,
+                density: d.material.density,
+            };
+            let st = corofem_capi::corofem_build(
+                h,
+                d.nodes.as_ptr().cast(),
+                n,
+                d.tets.as_ptr().cast(),
+                t,
+                &mat,
+                0,
+                std::ptr::null_mut(),
+            );
+            assert_eq!(st, Status::Ok);
+            let mut set = std::mem::zeroed::<Settings>();
+            assert_eq!(corofem_capi::corofem_settings_default(&mut set), Status::Ok);
+            set.dt = d.settings.dt;
+            set.cg_iterations = d.settings.cg_iterations;
+            set.rayleigh_mass = d.settings.rayleigh_mass;
+            set.rayleigh_stiffness = d.settings.rayleigh_stiffness;
+            set.gravity = d.settings.gravity;
+            set.warm_start = u32::from(d.settings.warm_start);
+            set.method = d.settings.method as u32;
+            set.preconditioner = d.settings.preconditioner as u32;
+            assert_eq!(corofem_capi::corofem_set_settings(h, &set), Status::Ok);
+            let f = &d.fixed;
+            assert_eq!(
+                corofem_capi::corofem_fix_nodes(h, f.as_ptr(), f.len()),
+                Status::Ok
+            );
+            let mut pbytes = 0usize;
+            assert_eq!(
+                corofem_capi::corofem_probes_bytes(1, &mut pbytes),
+                Status::Ok
+            );
+            let mut pbuf = vec![0u8; pbytes + 1];
+            let mut p: *mut ProbesHandle = std::ptr::null_mut();
+            let st = corofem_capi::corofem_probes_init(
+                pbuf.as_mut_ptr().add(1).cast(),
+                pbytes,
+                1,
+                &mut p,
+            );
+            assert_eq!(st, Status::Ok);
+            let mut index = usize::MAX;
+            let st = corofem_capi::corofem_probes_add_sphere(p, RADIUS, c0.as_ptr(), &mut index);
+            assert_eq!((st, index), (Status::Ok, 0));
+            if let Some((st, kin)) = mu {
+                assert_eq!(
+                    corofem_capi::corofem_probe_set_friction(p, 0, st, kin),
+                    Status::Ok
+                );
+            }
+            let (mut force, mut contacts) = ([0.0f32; 3], 0u32);
+            let mut stats = Stats::default();
+            let mut run = empty();
+            for i in 0..steps {
+                let at = path(c0, b, i + 1);
+                let st = corofem_capi::corofem_probe_move_to(p, 0, at.as_ptr(), std::ptr::null());
+                assert_eq!(st, Status::Ok);
+                let st = corofem_capi::corofem_step_probes(
+                    h,
+                    p,
+                    &mut stats,
+                    std::ptr::null_mut(),
+                    std::ptr::null_mut(),
+                );
+                assert_eq!(st, Status::Ok, "step {i}");
+                let st = corofem_capi::corofem_probe_force(p, 0, force.as_mut_ptr(), &mut contacts);
+                assert_eq!(st, Status::Ok);
+                // The statistics count the probe's contacts (the scene
+                // has no ground).
+                assert_eq!(stats.contacts, contacts, "step {i}");
+                track(&mut run, up, i + 1, force);
+            }
+            assert_eq!(stats.steps, u64::from(steps));
+            let mut hash = 0u64;
+            assert_eq!(corofem_capi::corofem_state_hash(h, &mut hash), Status::Ok);
+            assert_eq!(corofem_capi::corofem_scene_deinit(h), Status::Ok);
+            run.hash = hash;
+            run
+        }
+    }
+
+    /// The three ways agree, bit for bit; the probe pushed on the body
+    /// while pressed; returns the Rust run.
+    fn check(d: &Def, is_box: bool, with_friction: bool, mesh_arg: &str) -> Run {
+        let mu = friction(with_friction);
+        let rust = run_rust(d, is_box, mu, STEPS);
+        let capi = run_capi(d, is_box, mu, STEPS);
+        println!(
+            "{mesh_arg} probe{}: rust hash {:016x}, {rust:?}",
+            if with_friction { " with friction" } else { "" },
+            rust.hash,
+        );
+        assert_eq!(rust, capi);
+        // Pressed 5 mm below the node's rest height, the body pushes the
+        // probe back (a 6 mm sphere on these coarse meshes holds one node
+        // at a time, so the push is not continuous).
+        assert!(rust.peak_push > 0.0, "{rust:?}");
+        let mut args = vec![mesh_arg.to_owned(), STEPS.to_string(), "--probe".into()];
+        if with_friction {
+            args.push("--friction".into());
+        }
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        if let Some(c) = run_c(&args) {
+            assert_eq!(
+                c, rust.hash,
+                "C program hash {c:016x} vs Rust {:016x}",
+                rust.hash
+            );
+        }
+        rust
+    }
+
+    #[test]
+    fn box_probe_same_hash_from_rust_and_c() {
+        let plain = check(&box_def(), true, false, "box");
+        let rough = check(&box_def(), true, true, "box");
+        // Friction reached the solve: it changes the state, and over the
+        // slide along +x the surface the probe drags holds it back (−x)
+        // more than the frictionless surface it ploughs.
+        assert_ne!(plain.hash, rough.hash);
+        assert!(rough.slide_x < 0.0, "{rough:?}");
+        assert!(rough.slide_x < plain.slide_x, "{rough:?} vs {plain:?}");
+    }
+
+    #[test]
+    fn liver_probe_same_hash_from_rust_and_c() {
+        let Some(path) = liver_path() else { return };
+        let p = path.to_string_lossy().into_owned();
+        let d = liver_def(&path);
+        let plain = check(&d, false, false, &p);
+        let rough = check(&d, false, true, &p);
+        // Friction reached the solve.
+        assert_ne!(plain.hash, rough.hash);
+    }
+}
