@@ -13,6 +13,7 @@ MANIFEST=capi/Cargo.toml
 OUT=$(mktemp -d)
 trap 'rm -rf "$OUT"' EXIT
 LIVER=../shared/meshes/sofa_liver.tetmesh
+FINE_LIVER=../shared/meshes/liver_ftw_3k.tetmesh
 checks=0
 step() { echo; echo "=== capi: $*"; }
 pass() { checks=$((checks + 1)); echo "ok: $*"; }
@@ -50,8 +51,8 @@ cc -std=c11 -O2 -Wall -Wextra -pedantic -Werror -ffp-contract=off -Icapi/include
 "$OUT/haptic_loop" box 2000 --probe --friction
 if [ -f "$LIVER" ]; then
     "$OUT/haptic_loop" "$LIVER" 2000 --rt
-    "$OUT/haptic_loop" "$LIVER" 2000 --probe
-    "$OUT/haptic_loop" "$LIVER" 3000 --probe --friction --rt
+    "$OUT/haptic_loop" "$FINE_LIVER" 2000 --probe
+    "$OUT/haptic_loop" "$FINE_LIVER" 3000 --probe --friction --rt
 fi
 pass "C example on the host (the tool, and the probe with and without friction)"
 

@@ -19,15 +19,18 @@
  *         fixed at x = 0, grabbed at x = 10 cm, pulled down and back.
  *   MESH  SOFA's liver (sofa_liver.tetmesh) scaled by 0.03 to metres,
  *         fixed at nodes 3, 39, 64, grabbed at its tip, pulled out and back.
+ *         Any mesh in SOFA's liver units is scaled so; with --probe, the
+ *         finer liver (liver_ftw_3k.tetmesh, 729 nodes / 2772 tets, edges
+ *         of about 1 cm) is the one whose surface a fingertip resolves.
  *
- * --probe: instead of the tool, a sphere of radius 6 mm (a fingertip)
+ * --probe: instead of the tool, a sphere of radius 1 cm (a fingertip)
  * presses on the body from above, the body held by a tray (its nodes
  * within 3 cm of its lowest fixed; the box's bottom face), without gravity
  * (this soft liver, E = 5 kPa, would slump under its weight on a tray of
  * 15 nodes): only the probe loads it. On the liver it presses over the
  * topmost node (+y), on the box over node 84 (+z; x = 7 cm, on the top
  * face's centre line). It starts 2 mm above that node, presses in 0.3 s
- * to 5 mm below it, slides 15 mm along +x in 0.5 s, rises back in 0.3 s
+ * to 1 cm below it, slides 15 mm along +x in 0.5 s, rises back in 0.3 s
  * and returns above its start in 0.1 s: a cycle of 1.2 s, repeated. The
  * program prints the probe's final force, its largest push, the support
  * force and the hash.
@@ -103,7 +106,8 @@ static unsigned char arena[MAX_NODES * 200 + MAX_TETS * 136 + AGGREGATE_BYTES + 
  * own, like the scene (100 B per probe and a header; corofem_probes_bytes
  * gives the exact need). */
 static unsigned char probe_buffer[256];
-#define PROBE_RADIUS 0.006f
+#define PROBE_RADIUS 0.01f
+#define PROBE_DEPTH 0.01f
 
 /* An embedded surface for the box: an open tube of radius 1.2 cm around the
  * beam's axis (12 vertices on each of 11 rings, 1 cm apart), partly inside
@@ -288,7 +292,7 @@ static const char USAGE[] =
     "(default 2000) on the built-in 10 x 2 x 2 cm beam (box, the default) or on\n"
     "a tetmesh file (SOFA's liver, scaled by 0.03 to metres), and prints the\n"
     "final tool force and a hash of the state.\n"
-    "  --probe     press a 6 mm sphere into the body from above, slide it, lift\n"
+    "  --probe     press a 1 cm sphere 1 cm into the body from above, slide it, lift\n"
     "              it, instead of pulling with the tool; print the probe's force\n"
     "  --friction  with --probe: Coulomb friction between probe and body\n"
     "              (static 0.6, kinetic 0.4)\n"
@@ -441,11 +445,11 @@ int main(int argc, char **argv) {
             }
         }
         c0[0] = nodes[3 * pressed], c0[1] = nodes[3 * pressed + 1], c0[2] = nodes[3 * pressed + 2];
-        /* Start 2 mm above the node; deepest with the sphere's bottom 5 mm
-         * below it. */
+        /* Start 2 mm above the node; deepest with the sphere's bottom
+         * PROBE_DEPTH below it. */
         b[0] = c0[0], b[1] = c0[1], b[2] = c0[2];
         c0[up] = c0[up] + (PROBE_RADIUS + 0.002f);
-        b[up] = b[up] + (PROBE_RADIUS - 0.005f);
+        b[up] = b[up] + (PROBE_RADIUS - PROBE_DEPTH);
         settings.gravity[0] = 0.0f, settings.gravity[1] = 0.0f, settings.gravity[2] = 0.0f;
         CHECK(corofem_set_settings(scene, &settings));
         CHECK(corofem_probes_init(probe_buffer, sizeof probe_buffer, 1, &probes));
