@@ -315,6 +315,10 @@ pub enum Parameter {
     ProbePose,
     /// A `Friction`'s coefficients.
     Friction,
+    /// The stiffness, damping or proxy mass of a `Coupling`.
+    Coupling,
+    /// The device position or velocity given to `Coupling::drive`.
+    DeviceState,
     /// The output slice of `Scene::update_surface` or `vertex_normals`.
     SurfaceOut,
 }
@@ -370,6 +374,14 @@ impl fmt::Display for Parameter {
             }
             Parameter::Friction => {
                 "friction: the coefficients must be finite, ≥ 0, and the static one at least the kinetic one"
+            }
+            Parameter::Coupling => {
+                "coupling: the stiffness must be finite and > 0 N/m, the damping finite and \
+                 ≥ 0 N·s/m, the proxy mass finite and > 0 kg"
+            }
+            Parameter::DeviceState => {
+                "device state: the position and velocity must be finite, and the proxy they \
+                 drive must stay finite"
             }
             Parameter::ProbePose => {
                 "probe pose: the position must be finite and the axis finite and non-zero"

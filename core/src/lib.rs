@@ -80,6 +80,7 @@
 //! | `energy-guard` (default) | the energy guard ([`Settings::energy_guard`]): a step takes out of the body's deformation the energy the previous step made beyond the work of moving the tool's target, while nothing else did work on it and elements were inverted |
 //! | `two-level` (default) | the block-Jacobi and two-level preconditioners ([`Preconditioner`]); two-level, 4 CG iterations from a warm start, is then the default solver |
 //! | `probe` | rigid spheres and capsules pressing on the body ([`Scene::step_with_probes`]; brings `ground`) |
+//! | `coupling` | a haptic virtual coupling between a device and a probe ([`Coupling`]; brings `probe`) |
 //! | `friction` | Coulomb friction, static and kinetic, for the ground and probes ([`Friction`]; brings `ground`) |
 //! | `surface` | embedded surfaces: a detailed triangle surface bound to the tetrahedra and moved with them ([`Scene::bind_surface`], [`Scene::update_surface`], [`vertex_normals`]) |
 //! | `alloc` | `VecStorage` and `VecScene`: storage in `Vec`s, sized at run time (the solver never allocates) |
@@ -133,6 +134,8 @@ mod settings;
 mod step;
 mod storage;
 
+#[cfg(feature = "coupling")]
+mod coupling;
 #[cfg(feature = "diagnostics")]
 mod diagnostics;
 #[cfg(all(
@@ -161,6 +164,8 @@ pub use element::{element_blocks, ElementBlock, Method};
 /// run in vector lanes (x86, x86_64, AArch64, wasm32 with `simd128`), 1
 /// elsewhere (e.g. a Cortex-M4F).
 pub const ELEMENTS_PER_BLOCK: usize = lanes::LANES;
+#[cfg(feature = "coupling")]
+pub use coupling::Coupling;
 pub use error::{Error, Parameter, StepError};
 #[cfg(feature = "friction")]
 pub use ground::Friction;
