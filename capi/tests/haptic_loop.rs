@@ -129,8 +129,10 @@ fn run_rust(d: &Def, steps: u32) -> (u64, [f32; 3]) {
     (s.state_hash(), force)
 }
 
-/// Through the C functions, in a heap buffer at an odd address: (hash, tool force).
-fn run_capi(d: &Def, steps: u32) -> (u64, [f32; 3]) {
+/// `d`'s scene made through the C functions, in a heap buffer at an odd
+/// address (which the handle must not outlive), its settings checked by
+/// reading them back, its nodes fixed.
+fn capi_scene(d: &Def) -> (Vec<u8>, *mut corofem_capi::SceneHandle) {
     let (n, t) = (d.nodes.len(), d.tets.len());
     let mut bytes = 0usize;
     // SAFETY (whole function): every pointer is a live local or a slice of
@@ -181,6 +183,16 @@ fn run_capi(d: &Def, steps: u32) -> (u64, [f32; 3]) {
             corofem_capi::corofem_fix_nodes(h, f.as_ptr(), f.len()),
             Status::Ok
         );
+        (buf, h)
+    }
+}
+
+/// Through the C functions, in a heap buffer at an odd address: (hash, tool force).
+fn run_capi(d: &Def, steps: u32) -> (u64, [f32; 3]) {
+    let (_buf, h) = capi_scene(d);
+    // SAFETY (whole block): every pointer is a live local or a slice of
+    // the stated length; `_buf` outlives the handle.
+    unsafe {
         let g = &d.tip;
         assert_eq!(
             corofem_capi::corofem_grab(h, g.as_ptr(), g.len(), d.stiffness),
@@ -442,57 +454,10 @@ mod probe_scene {
     fn run_capi(d: &Def, is_box: bool, mu: Option<(f32, f32)>, steps: u32) -> Run {
         let (d, up, c0, b) = scene(d, is_box);
         let d = &d;
-        let (n, t) = (d.nodes.len(), d.tets.len());
+        let (_buf, h) = capi_scene(d);
         // SAFETY (whole function): every pointer is a live local or a
         // slice of the stated length; the buffers outlive the handles.
         unsafe {
-            let mut bytes = 0usize;
-            assert_eq!(
-                corofem_capi::corofem_scene_bytes(n, t, &mut bytes),
-                Status::Ok
-            );
-            let mut buf = vec![0u8; bytes + 1];
-            let mut h = std::ptr::null_mut();
-            let st = corofem_capi::corofem_scene_init(
-                buf.as_mut_ptr().add(1).cast(),
-                bytes,
-                n,
-                t,
-                &mut h,
-            );
-            assert_eq!(st, Status::Ok);
-            let mat = Material {
-                young: d.material.young,
-                poisson: d.material.poisson,
-                density: d.material.density,
-            };
-            let st = corofem_capi::corofem_build(
-                h,
-                d.nodes.as_ptr().cast(),
-                n,
-                d.tets.as_ptr().cast(),
-                t,
-                &mat,
-                0,
-                std::ptr::null_mut(),
-            );
-            assert_eq!(st, Status::Ok);
-            let mut set = std::mem::zeroed::<Settings>();
-            assert_eq!(corofem_capi::corofem_settings_default(&mut set), Status::Ok);
-            set.dt = d.settings.dt;
-            set.cg_iterations = d.settings.cg_iterations;
-            set.rayleigh_mass = d.settings.rayleigh_mass;
-            set.rayleigh_stiffness = d.settings.rayleigh_stiffness;
-            set.gravity = d.settings.gravity;
-            set.warm_start = u32::from(d.settings.warm_start);
-            set.method = d.settings.method as u32;
-            set.preconditioner = d.settings.preconditioner as u32;
-            assert_eq!(corofem_capi::corofem_set_settings(h, &set), Status::Ok);
-            let f = &d.fixed;
-            assert_eq!(
-                corofem_capi::corofem_fix_nodes(h, f.as_ptr(), f.len()),
-                Status::Ok
-            );
             let mut pbytes = 0usize;
             assert_eq!(
                 corofem_capi::corofem_probes_bytes(1, &mut pbytes),

@@ -94,17 +94,22 @@ impl Coupling {
                 parameter: Parameter::Coupling,
             });
         }
-        Ok(Self {
+        Ok(Self::at_rest(stiffness, damping, proxy_mass))
+    }
+
+    /// The coupling with its proxy at rest, knowing nothing of the body.
+    fn at_rest(stiffness: f32, damping: f32, mass: f32) -> Self {
+        Self {
             stiffness,
             damping,
-            mass: proxy_mass,
+            mass,
             velocity: [0.0; 3],
             force: [0.0; 3],
             body_stiffness: 0.0,
             previous_force: [0.0; 3],
             last_position: [0.0; 3],
             last_force: [0.0; 3],
-        })
+        }
     }
 
     /// The spring's stiffness (N/m).
@@ -141,15 +146,7 @@ impl Coupling {
     /// of the body: for a probe that was just [placed](Probe::place)
     /// somewhere else.
     pub fn reset(&mut self) {
-        *self = Self {
-            velocity: [0.0; 3],
-            force: [0.0; 3],
-            body_stiffness: 0.0,
-            previous_force: [0.0; 3],
-            last_position: [0.0; 3],
-            last_force: [0.0; 3],
-            ..*self
-        };
+        *self = Self::at_rest(self.stiffness, self.damping, self.mass);
     }
 
     /// One period of the haptic loop, before the scene's step: the device

@@ -88,12 +88,7 @@ type Path = dyn Fn(f32) -> ([f32; 3], [f32; 3]);
 /// the hand pushes it with that force (N); with `path`, the device follows
 /// the path (its position and velocity at a time, s) and `cycle` is the
 /// path's period in steps.
-fn run(
-    mode: Loop,
-    steps: usize,
-    hand: Option<[f32; 3]>,
-    path: Option<(&Path, usize)>,
-) -> Run {
+fn run(mode: Loop, steps: usize, hand: Option<[f32; 3]>, path: Option<(&Path, usize)>) -> Run {
     let mut scene = block();
     let mut probes = [Probe::sphere(RADIUS, START).unwrap()];
     let (mut x, mut v) = (START, [0.0f32; 3]);
