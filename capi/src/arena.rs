@@ -28,7 +28,6 @@
 
 use core::alloc::Layout;
 use core::mem::{align_of, size_of};
-use core::ptr;
 
 use corofem_core::{
     element_blocks, ElementBlock, Node, NodeEntry, NodeWork, Scene, SliceStorage, StepStats,
@@ -305,18 +304,31 @@ pub unsafe fn check_stamp<T: Stamped>(h: *const T, magic: u32) -> Result<(), Sta
     Ok(())
 }
 
-impl Stamped for SceneHandle {
-    unsafe fn stamp(h: *const Self) -> (u32, usize) {
-        // SAFETY: the caller's contract; only the two plain integer fields
-        // are read.
-        unsafe {
-            (
-                ptr::addr_of!((*h).magic).read(),
-                ptr::addr_of!((*h).this).read(),
-            )
+/// [`Stamped`] for a handle type with the fields `magic: u32` and
+/// `this: usize`.
+macro_rules! stamped {
+    ($handle:ty) => {
+        impl $crate::arena::Stamped for $handle {
+            unsafe fn stamp(h: *const Self) -> (u32, usize) {
+                // SAFETY: the caller's contract; only the two plain integer
+                // fields are read.
+                unsafe {
+                    (
+                        core::ptr::addr_of!((*h).magic).read(),
+                        core::ptr::addr_of!((*h).this).read(),
+                    )
+                }
+            }
         }
-    }
+    };
 }
+#[cfg_attr(
+    not(any(feature = "probe", feature = "surface")),
+    allow(unused_imports)
+)]
+pub(crate) use stamped;
+
+stamped!(SceneHandle);
 
 impl SceneHandle {
     /// Marks the scene dead: every later call with this handle is refused.

@@ -26,8 +26,6 @@
 use core::alloc::Layout;
 #[cfg(feature = "probe")]
 use core::mem::size_of;
-#[cfg(feature = "probe")]
-use core::ptr;
 
 #[cfg(feature = "probe")]
 use corofem_core::Probe;
@@ -135,18 +133,7 @@ pub unsafe fn init(
 }
 
 #[cfg(feature = "probe")]
-impl crate::arena::Stamped for ProbesHandle {
-    unsafe fn stamp(h: *const Self) -> (u32, usize) {
-        // SAFETY: the caller's contract; only the two plain integer fields
-        // are read.
-        unsafe {
-            (
-                ptr::addr_of!((*h).magic).read(),
-                ptr::addr_of!((*h).this).read(),
-            )
-        }
-    }
-}
+crate::arena::stamped!(ProbesHandle);
 
 /// A live set of probes: its header, and the caller's pointer to it,
 /// through which the slots that follow it are reached (a reference to the

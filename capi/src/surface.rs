@@ -216,18 +216,7 @@ pub unsafe fn surface<'a>(h: *const SurfaceHandle) -> Result<Surface<'a>, Status
 }
 
 #[cfg(feature = "surface")]
-impl crate::arena::Stamped for SurfaceHandle {
-    unsafe fn stamp(h: *const Self) -> (u32, usize) {
-        // SAFETY: the caller's contract; only the two plain integer fields
-        // are read.
-        unsafe {
-            (
-                ptr::addr_of!((*h).magic).read(),
-                ptr::addr_of!((*h).this).read(),
-            )
-        }
-    }
-}
+crate::arena::stamped!(SurfaceHandle);
 
 #[cfg(feature = "surface")]
 impl Surface<'_> {
