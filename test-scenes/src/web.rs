@@ -799,6 +799,15 @@ impl App {
         Ok(())
     }
 
+    /// Sets the Coulomb friction coefficient `mu` (static and kinetic)
+    /// between the body and the ground (none by default: a body pressed
+    /// aslant slides away). Refused, with nothing changed, unless finite
+    /// and ≥ 0.
+    pub fn set_ground_friction(&mut self, mu: f32) -> Result<(), Error> {
+        self.scene.set_ground_friction(Friction::coulomb(mu)?);
+        Ok(())
+    }
+
     /// Where a sphere of `radius` (m) moving along the ray `origin + t dir`
     /// (`dir` any length > 0) first touches a node of the body's boundary,
     /// the only nodes a probe touches: the `t` of its centre then, a hair
@@ -1501,6 +1510,11 @@ mod tests {
         assert_eq!(*app.probe().unwrap(), before);
         assert!(app.set_probe_friction(0.5).is_ok());
         assert_eq!(app.probe().unwrap().friction().static_coefficient(), 0.5);
+        assert!(app.set_ground_friction(-1.0).is_err());
+        assert!(app.set_ground_friction(f32::INFINITY).is_err());
+        assert_eq!(app.scene().ground_friction(), Friction::NONE);
+        assert!(app.set_ground_friction(0.8).is_ok());
+        assert_eq!(app.scene().ground_friction().kinetic_coefficient(), 0.8);
         assert_eq!(app.probe_cast([f32::NAN, 0.0, 1.0], down, 0.05), None);
         assert_eq!(app.probe_cast([0.0, 0.0, 1.0], [0.0; 3], 0.05), None);
         assert_eq!(app.probe_cast([0.0, 0.0, 1.0], down, f32::NAN), None);

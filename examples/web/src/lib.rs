@@ -626,6 +626,27 @@ pub extern "C" fn cf_probe_friction(mu: f32) -> i32 {
     })
 }
 
+/// Sets the Coulomb friction coefficient (static and kinetic) between the
+/// body and the ground (none by default). Returns 0, or 1 with the error
+/// (not finite or < 0) and nothing changed.
+#[allow(unsafe_code)]
+#[no_mangle]
+pub extern "C" fn cf_ground_friction(mu: f32) -> i32 {
+    with(|s| {
+        let r = match s.app.as_mut() {
+            Some(app) => app.set_ground_friction(mu),
+            None => Ok(()),
+        };
+        match r {
+            Ok(()) => 0,
+            Err(e) => {
+                s.message = e.to_string();
+                1
+            }
+        }
+    })
+}
+
 /// Takes the probe away.
 #[allow(unsafe_code)]
 #[no_mangle]
