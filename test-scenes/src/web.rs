@@ -1,7 +1,7 @@
 //! The demo's simulation side: built-in bodies and their smooth surfaces,
 //! placing and holding a body, its surface for drawing, an embedded surface
 //! carried by the tetrahedra, picking and grabbing with the haptic tool,
-//! frames of several steps, and the scripted scene whose state hash the wasm
+//! pressing a rigid sphere into the body (the probe), frames of several steps, and the scripted scene whose state hash the wasm
 //! module and the host must agree on ([`hash_script`]).
 //!
 //! Only `corofem` and `std` are used here. The web demo (`examples/web`)
@@ -11,8 +11,9 @@
 // The scene is a `VecScene`: in vectors sized at run time (the body can come
 // from a file), with a grab and a load slot for every node.
 use corofem::{
-    surface_scratch_len, vertex_normals, BindStats, BoxMesh, BuildOptions, Error, Material, Method,
-    Plane, Preconditioner, Settings, SurfaceBinding, VecScene,
+    surface_scratch_len, vertex_normals, BindStats, BoxMesh, BuildOptions, Error, Friction,
+    Material, Method, Parameter, Plane, Preconditioner, Probe, Settings, StepError, SurfaceBinding,
+    VecScene,
 };
 
 /// A tetrahedral mesh in the core's input form.
@@ -311,6 +312,13 @@ pub struct FrameStats {
     /// A step produced non-finite values and was refused (the state is the
     /// last good one).
     pub diverged: bool,
+    /// Force of the body on the probe after the last step (N).
+    pub probe_force: [f32; 3],
+    /// Nodes the probe held in the last step.
+    pub probe_contacts: u32,
+    /// The probe would have started inside the body and was moved out
+    /// against its press direction ([`App::set_probe`]).
+    pub probe_moved_out: bool,
 }
 
 /// A ray hit on the surface.
@@ -394,6 +402,17 @@ pub struct App {
     grabbed: Vec<u32>,
     /// Grabbed nodes' centroid minus the picked point (m).
     grab_offset: [f32; 3],
+    /// The nodes of the boundary triangles: those that touch a probe.
+    boundary: Vec<u32>,
+    /// The probe (a sphere), if one is pressed on the body.
+    probe: Option<Probe>,
+    /// Where the probe's centre is to be at the end of the next frame (m).
+    probe_goal: [f32; 3],
+    /// The unit direction the probe presses in: it is moved out against it
+    /// if it would start inside the body.
+    probe_dir: [f32; 3],
+    /// Friction between the probe and the body.
+    probe_friction: Friction,
     stats: FrameStats,
 }
 
@@ -453,6 +472,9 @@ impl App {
             .filter_map(|e| scene.element_nodes(e))
             .collect();
         let surface = corofem_io::boundary_triangles(&elems);
+        let mut boundary: Vec<u32> = surface.iter().flatten().copied().collect();
+        boundary.sort_unstable();
+        boundary.dedup();
         let edge = scene.mean_edge_length();
         let mut app = App {
             positions: vec![0.0; 3 * rest.len()],
@@ -467,6 +489,11 @@ impl App {
             edge,
             grabbed: Vec::new(),
             grab_offset: [0.0; 3],
+            boundary,
+            probe: None,
+            probe_goal: [0.0; 3],
+            probe_dir: [0.0, 0.0, -1.0],
+            probe_friction: Friction::NONE,
             stats: FrameStats::default(),
         };
         app.update_positions();
@@ -637,17 +664,35 @@ impl App {
         self.stats
     }
 
-    /// Runs up to `substeps` steps; stops at the first refused step.
+    /// Runs up to `substeps` steps; stops at the first refused step. A probe
+    /// moves on a straight line from where the last frame left it to its
+    /// goal ([`App::set_probe`]), an equal part in each step.
     pub fn step_frame(&mut self, substeps: u32) -> FrameStats {
         let mut f = FrameStats::default();
-        for _ in 0..substeps {
-            match self.scene.step() {
+        // Where the probe starts the frame, and where each step starts.
+        let from = self.probe.map(|p| p.position());
+        let mut at = from;
+        for k in 0..substeps {
+            let r = match (from, at) {
+                (Some(from), Some(start)) => {
+                    let to = lerp(from, self.probe_goal, (k + 1) as f32 / substeps as f32);
+                    let r = self.step_probe(start, to, &mut f);
+                    at = self.probe.map(|p| p.position());
+                    r
+                }
+                _ => self.scene.step(),
+            };
+            match r {
                 Ok(s) => {
                     f.steps += 1;
                     f.inverted = s.inverted;
                     f.contacts = s.contacts;
                     f.tool_force = s.tool_force;
                     f.cg_residual = s.cg_residual;
+                    if let Some(p) = &self.probe {
+                        f.probe_force = p.force();
+                        f.probe_contacts = p.contacts();
+                    }
                 }
                 Err(_) => {
                     f.diverged = true;
@@ -659,6 +704,197 @@ impl App {
         self.update_positions();
         self.stats = f;
         f
+    }
+
+    /// A step that moves the probe from `start`, where the last step left
+    /// it (or where it was made), to `to`. A new probe that would start with
+    /// a boundary node inside it (the core refuses that step and changes
+    /// nothing) is first moved out against its press direction, to where it
+    /// touches no node, and swept from there; the frame says so.
+    fn step_probe(
+        &mut self,
+        start: [f32; 3],
+        to: [f32; 3],
+        f: &mut FrameStats,
+    ) -> Result<corofem::StepStats, StepError> {
+        let Some(mut p) = self.probe else {
+            return self.scene.step();
+        };
+        // Both finite: `set_probe` checked them, and `lerp` stays between.
+        let axis = PROBE_AXIS;
+        let _ = p.move_to(to, axis);
+        let mut r = self.scene.step_with_probes(core::slice::from_mut(&mut p));
+        if let Err(StepError::ProbeInsideBody { .. }) = r {
+            f.probe_moved_out = true;
+            let out = self.probe_escape(start, self.probe_dir, p.radius());
+            if p.place(out, axis).is_ok() && p.move_to(to, axis).is_ok() {
+                r = self.scene.step_with_probes(core::slice::from_mut(&mut p));
+            }
+            if r.is_err() {
+                // Not even there: no probe rather than no step.
+                self.probe = None;
+                return self.scene.step();
+            }
+        }
+        self.probe = Some(p);
+        r
+    }
+
+    /// Presses a sphere of `radius` (m) on the body: its centre is to reach
+    /// `centre` (m) by the end of the next frame, moving from where it is;
+    /// `dir` (any length > 0) is the direction it presses in. Without a
+    /// probe, or with one of another radius, a new one is made at `centre`:
+    /// its first step must not start with a boundary node inside it (the
+    /// core refuses such a step), so it is moved out against `dir` if it
+    /// would ([`App::probe_cast`] finds where a sphere coming along a ray
+    /// first touches the body). Refused, with nothing changed, for a radius
+    /// that is not finite and > 0 or a centre or direction that is not
+    /// finite (or a direction of zero length).
+    pub fn set_probe(&mut self, centre: [f32; 3], radius: f32, dir: [f32; 3]) -> Result<(), Error> {
+        let bad_pose = Error::InvalidParameter {
+            parameter: Parameter::ProbePose,
+        };
+        let len = dot(dir, dir).sqrt();
+        if !(len > 0.0 && len.is_finite()) {
+            return Err(bad_pose);
+        }
+        let dir = [dir[0] / len, dir[1] / len, dir[2] / len];
+        match self.probe {
+            Some(mut p) if p.radius() == radius => {
+                // Only a check: the next step starts where the last ended.
+                p.move_to(centre, PROBE_AXIS)?;
+            }
+            _ => {
+                let p = Probe::sphere(radius, centre)?.with_friction(self.probe_friction);
+                self.probe = Some(p);
+            }
+        }
+        self.probe_goal = centre;
+        self.probe_dir = dir;
+        Ok(())
+    }
+
+    /// Takes the probe away.
+    pub fn clear_probe(&mut self) {
+        self.probe = None;
+        self.stats.probe_force = [0.0; 3];
+        self.stats.probe_contacts = 0;
+    }
+
+    /// The probe, if one is pressed on the body: [`Probe::position`] is
+    /// where the last step left it, or where it was made.
+    pub fn probe(&self) -> Option<&Probe> {
+        self.probe.as_ref()
+    }
+
+    /// Sets the Coulomb friction coefficient `mu` (static and kinetic)
+    /// between the probe and the body, for the probe now and those made
+    /// later. Refused, with nothing changed, unless finite and ≥ 0.
+    pub fn set_probe_friction(&mut self, mu: f32) -> Result<(), Error> {
+        let friction = Friction::coulomb(mu)?;
+        self.probe_friction = friction;
+        if let Some(p) = self.probe.as_mut() {
+            p.set_friction(friction);
+        }
+        Ok(())
+    }
+
+    /// Sets the Coulomb friction coefficient `mu` (static and kinetic)
+    /// between the body and the ground (none by default: a body pressed
+    /// aslant slides away). Refused, with nothing changed, unless finite
+    /// and ≥ 0.
+    pub fn set_ground_friction(&mut self, mu: f32) -> Result<(), Error> {
+        self.scene.set_ground_friction(Friction::coulomb(mu)?);
+        Ok(())
+    }
+
+    /// Where a sphere of `radius` (m) moving along the ray `origin + t dir`
+    /// (`dir` any length > 0) first touches a node of the body's boundary,
+    /// the only nodes a probe touches: the `t` of its centre then, a hair
+    /// short of the touch, so that a probe made there starts outside the
+    /// body. `None` when it passes every node, when it touches one already
+    /// at the origin, or for input that is not finite.
+    ///
+    /// A node at `x` is touched where `|origin + t dir − x| = radius`: with
+    /// `w = x − origin`, `s = w·d / |d|²` and `q² = |w − s d|²` the squared
+    /// distance of the ray from the node, at `t = s − √(radius² − q²) / |d|`.
+    pub fn probe_cast(&self, origin: [f32; 3], dir: [f32; 3], radius: f32) -> Option<f32> {
+        let dd = dot(dir, dir);
+        if !(dd > 0.0 && dd.is_finite() && radius > 0.0 && radius.is_finite())
+            || !origin.iter().all(|v| v.is_finite())
+        {
+            return None;
+        }
+        let len = dd.sqrt();
+        let r2 = radius * radius;
+        let mut best = f32::INFINITY;
+        for &i in &self.boundary {
+            let w = sub(self.position(i), origin);
+            let s = dot(w, dir) / dd;
+            let q = sub(w, [s * dir[0], s * dir[1], s * dir[2]]);
+            let q2 = dot(q, q);
+            if q2 >= r2 {
+                continue;
+            }
+            let h = (r2 - q2).sqrt() / len;
+            if s + h <= 0.0 {
+                continue; // behind the origin
+            }
+            if s - h <= 0.0 {
+                return None; // around the origin already
+            }
+            best = best.min(s - h);
+        }
+        let t = best - PROBE_MARGIN * radius / len;
+        (best.is_finite() && t > 0.0).then_some(t)
+    }
+
+    /// The least distance `s ≥ 0` (m) that a sphere of `radius` (m) centred
+    /// at `centre` must move against the unit direction `dir` to have no
+    /// node of the body's boundary inside it (with a margin).
+    ///
+    /// Each node within `radius` of the line `centre − s dir` is inside for
+    /// `s` in an interval around its foot; the answer is the first `s ≥ 0`
+    /// outside every interval: the intervals by their start, each that
+    /// covers the `s` so far moves it to its end.
+    fn probe_escape(&self, centre: [f32; 3], dir: [f32; 3], radius: f32) -> [f32; 3] {
+        let r = radius * (1.0 + PROBE_MARGIN);
+        let mut spans: Vec<(f32, f32)> = self
+            .boundary
+            .iter()
+            .filter_map(|&i| {
+                let w = sub(self.position(i), centre);
+                let a = -dot(w, dir);
+                let q2 = dot(w, w) - a * a;
+                (q2 < r * r).then(|| {
+                    let h = (r * r - q2).max(0.0).sqrt();
+                    (a - h, a + h)
+                })
+            })
+            .collect();
+        spans.sort_by(|x, y| x.0.total_cmp(&y.0));
+        let mut s = 0.0f32;
+        for (lo, hi) in spans {
+            if lo > s {
+                break;
+            }
+            s = s.max(hi);
+        }
+        [
+            centre[0] - s * dir[0],
+            centre[1] - s * dir[1],
+            centre[2] - s * dir[2],
+        ]
+    }
+
+    /// Current position of node `i` (m).
+    fn position(&self, i: u32) -> [f32; 3] {
+        let k = 3 * i as usize;
+        [
+            self.positions[k],
+            self.positions[k + 1],
+            self.positions[k + 2],
+        ]
     }
 
     /// Nearest hit of the ray `origin + t dir` (`t > 0`) on the surface
@@ -791,9 +1027,10 @@ impl App {
         self.stats.tool_force = [0.0; 3];
     }
 
-    /// Back to the rest shape, at rest, tool released.
+    /// Back to the rest shape, at rest, tool released, probe taken away.
     pub fn reset(&mut self) {
         self.release();
+        self.clear_probe();
         self.scene.reset_state();
         self.stats = FrameStats::default();
         self.update_positions();
@@ -819,6 +1056,21 @@ pub fn bounds(points: &[[f32; 3]]) -> ([f32; 3], [f32; 3]) {
         return ([0.0; 3], [0.0; 3]);
     }
     (lo, hi)
+}
+
+/// How far short of a touch [`App::probe_cast`] stops, and how far clear
+/// of the nodes [`App::set_probe`] moves a probe out, relative to its radius.
+const PROBE_MARGIN: f32 = 1e-3;
+
+/// A sphere's axis: any unit vector (a sphere ignores it).
+const PROBE_AXIS: [f32; 3] = [0.0, 0.0, 1.0];
+
+fn lerp(a: [f32; 3], b: [f32; 3], s: f32) -> [f32; 3] {
+    [
+        a[0] + s * (b[0] - a[0]),
+        a[1] + s * (b[1] - a[1]),
+        a[2] + s * (b[2] - a[2]),
+    ]
 }
 
 fn sub(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
@@ -1169,6 +1421,109 @@ mod tests {
         app.release();
         app.reset();
         assert_eq!(app.positions()[3 * 20 + 2], z0);
+    }
+
+    #[test]
+    fn a_probe_pressed_into_the_cube_is_pushed_back_and_dents_it() {
+        // The cube on the ground, a 6 cm sphere coming down on its top.
+        let mut app = App::body(Body::Cube, Params::DEFAULT).unwrap();
+        app.step_frame(50);
+        let (r, down) = (0.06, [0.0, 0.0, -1.0]);
+        let origin = [0.02, 0.01, 2.0];
+        let t = app.probe_cast(origin, down, r).unwrap();
+        let touch = [origin[0], origin[1], origin[2] - t];
+        // The top is at 0.3 m: the sphere's lowest point just above it.
+        assert!((touch[2] - r - 0.3).abs() < 0.01, "{touch:?}");
+        app.set_probe(touch, r, down).unwrap();
+        let rest = app.positions().to_vec();
+        for k in 1..=20 {
+            let depth = 0.03 * (k as f32 / 20.0);
+            app.set_probe([touch[0], touch[1], touch[2] - depth], r, down)
+                .unwrap();
+            assert_eq!(app.step_frame(4).steps, 4);
+        }
+        let f = app.step_frame(20);
+        assert_eq!(f.steps, 20, "{f:?}");
+        assert!(!f.probe_moved_out);
+        // The body pushes the probe back up, by more than its weight.
+        assert!(f.probe_force[2] > 50.0, "{:?}", f.probe_force);
+        assert!(f.probe_force[2] > 10.0 * f.probe_force[0].abs().max(f.probe_force[1].abs()));
+        assert!(f.probe_contacts > 0);
+        assert!(f.contacts >= f.probe_contacts);
+        let p = app.probe().unwrap();
+        assert_eq!(p.position(), [touch[0], touch[1], touch[2] - 0.03]);
+        // Dented: the top nodes under the probe moved down, none is inside it.
+        let dent = (0..rest.len() / 3)
+            .map(|i| rest[3 * i + 2] - app.positions()[3 * i + 2])
+            .fold(0.0f32, f32::max);
+        assert!(dent > 0.015, "{dent}");
+        for &i in &app.boundary {
+            assert!(p.distance(app.position(i)) > -1e-3 * r);
+        }
+        assert!(app.positions().iter().all(|v| v.is_finite()));
+        app.clear_probe();
+        assert!(app.probe().is_none());
+        assert_eq!(app.step_frame(1).probe_contacts, 0);
+    }
+
+    #[test]
+    fn a_probe_that_would_start_inside_is_moved_out_against_its_press() {
+        let mut app = App::body(Body::Cube, Params::DEFAULT).unwrap();
+        let down = [0.0, 0.0, -1.0];
+        // Centred 2 cm below the top: nodes inside. The core refuses that
+        // first step; the app moves the sphere up until it touches none.
+        app.set_probe([0.0, 0.0, 0.28], 0.06, down).unwrap();
+        let f = app.step_frame(1);
+        assert!(f.probe_moved_out, "{f:?}");
+        assert_eq!(f.steps, 1);
+        assert!(!f.diverged);
+        // It starts from above the top and ends where asked, pushing in.
+        assert_eq!(app.probe().unwrap().position(), [0.0, 0.0, 0.28]);
+        assert!(f.probe_force[2] > 0.0, "{:?}", f.probe_force);
+        let f = app.step_frame(10);
+        assert!(!f.probe_moved_out);
+        assert!(f.probe_contacts > 0 && f.probe_force[2] > 0.0, "{f:?}");
+        assert!(app.positions().iter().all(|v| v.is_finite()));
+    }
+
+    #[test]
+    fn bad_probe_input_is_refused_and_changes_nothing() {
+        let mut app = App::body(Body::Cube, Params::DEFAULT).unwrap();
+        let down = [0.0, 0.0, -1.0];
+        for (c, r, d) in [
+            ([f32::NAN, 0.0, 1.0], 0.05, down),
+            ([0.0, 0.0, 1.0], f32::NAN, down),
+            ([0.0, 0.0, 1.0], -0.05, down),
+            ([0.0, 0.0, 1.0], 0.0, down),
+            ([0.0, 0.0, f32::INFINITY], 0.05, down),
+            ([0.0, 0.0, 1.0], 0.05, [0.0; 3]),
+            ([0.0, 0.0, 1.0], 0.05, [f32::NAN, 0.0, 1.0]),
+        ] {
+            assert!(app.set_probe(c, r, d).is_err(), "{c:?} {r} {d:?}");
+            assert!(app.probe().is_none());
+        }
+        app.set_probe([0.0, 0.0, 1.0], 0.05, down).unwrap();
+        let before = *app.probe().unwrap();
+        assert!(app.set_probe([f32::NAN, 0.0, 0.9], 0.05, down).is_err());
+        assert!(app.set_probe_friction(-1.0).is_err());
+        assert!(app.set_probe_friction(f32::NAN).is_err());
+        assert_eq!(*app.probe().unwrap(), before);
+        assert!(app.set_probe_friction(0.5).is_ok());
+        assert_eq!(app.probe().unwrap().friction().static_coefficient(), 0.5);
+        assert!(app.set_ground_friction(-1.0).is_err());
+        assert!(app.set_ground_friction(f32::INFINITY).is_err());
+        assert_eq!(app.scene().ground_friction(), Friction::NONE);
+        assert!(app.set_ground_friction(0.8).is_ok());
+        assert_eq!(app.scene().ground_friction().kinetic_coefficient(), 0.8);
+        assert_eq!(app.probe_cast([f32::NAN, 0.0, 1.0], down, 0.05), None);
+        assert_eq!(app.probe_cast([0.0, 0.0, 1.0], [0.0; 3], 0.05), None);
+        assert_eq!(app.probe_cast([0.0, 0.0, 1.0], down, f32::NAN), None);
+        // A ray past the body, and one from inside it.
+        assert_eq!(app.probe_cast([2.0, 0.0, 1.0], down, 0.05), None);
+        assert_eq!(app.probe_cast([0.0, 0.0, 0.3], down, 0.05), None);
+        let f = app.step_frame(2);
+        assert_eq!(f.steps, 2);
+        assert!(!f.diverged && !f.probe_moved_out);
     }
 
     #[test]

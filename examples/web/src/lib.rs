@@ -12,6 +12,12 @@
 //! a buffer the page fills before calling `cf_load_input` (a mesh) or
 //! `cf_load_surface_input` (a surface to embed).
 //!
+//! The probe (`cf_probe_*`) is a rigid sphere pressed on the body: the page
+//! finds where it first touches along the cursor's ray (`cf_probe_cast`),
+//! sets where its centre is to be at the end of each frame (`cf_probe_set`)
+//! and reads back its pose and the force the body exerts on it
+//! (`cf_probe_state`).
+//!
 //! An embedded surface (`cf_embedded_*`) is drawn in place of the
 //! tetrahedra's boundary: the built-in bodies come with one, a file may
 //! replace it. It never changes the simulation; `cf_embedded_update` moves
@@ -44,10 +50,13 @@ struct State {
     /// A file's bytes, written by the page.
     input: Vec<u8>,
     /// Statistics of the last frame; see `cf_stats_ptr`.
-    stats: [f32; 12],
-    /// Small vector results; see `cf_grab_state`.
-    vec: [f32; 6],
+    stats: [f32; STATS],
+    /// Small vector results; see `cf_grab_state` and `cf_probe_state`.
+    vec: [f32; 8],
 }
+
+/// Length of the statistics (f32 each); see `cf_stats_ptr`.
+const STATS: usize = 16;
 
 thread_local! {
     static STATE: RefCell<State> = const {
@@ -57,8 +66,8 @@ thread_local! {
             params: Params::DEFAULT,
             message: String::new(),
             input: Vec::new(),
-            stats: [0.0; 12],
-            vec: [0.0; 6],
+            stats: [0.0; STATS],
+            vec: [0.0; 8],
         })
     };
 }
@@ -94,7 +103,7 @@ fn install(s: &mut State, result: Result<(App, Placement), String>, note: String
         Ok((app, placement)) => {
             s.app = Some(app);
             s.placement = placement;
-            s.stats = [0.0; 12];
+            s.stats = [0.0; STATS];
             s.message = note;
             0
         }
@@ -436,7 +445,11 @@ pub extern "C" fn cf_step(substeps: u32) -> u32 {
             app.scene().time() as f32,
             (l[0] * l[0] + l[1] * l[1] + l[2] * l[2]).sqrt(),
             app.scene().kinetic_energy(),
-            0.0,
+            f.probe_contacts as f32,
+            f.probe_force[0],
+            f.probe_force[1],
+            f.probe_force[2],
+            if f.probe_moved_out { 1.0 } else { 0.0 },
         ];
         f.steps
     })
@@ -462,10 +475,12 @@ fn spin(app: &App) -> [f32; 3] {
     ]
 }
 
-/// Address of the last frame's statistics, 12 × f32: steps, inverted
-/// elements, ground contacts, tool force x y z (N), CG residual, diverged
-/// (0/1), simulated time (s), |angular momentum about the centre of mass|
-/// (kg·m²/s), kinetic energy (J), unused.
+/// Address of the last frame's statistics, 16 × f32: steps, inverted
+/// elements, contacts (ground and probe), tool force x y z (N), CG
+/// residual, diverged (0/1), simulated time (s), |angular momentum about
+/// the centre of mass| (kg·m²/s), kinetic energy (J), probe contacts, force
+/// of the body on the probe x y z (N), probe moved out (0/1: it would have
+/// started inside the body).
 #[allow(unsafe_code)]
 #[no_mangle]
 pub extern "C" fn cf_stats_ptr() -> u32 {
@@ -514,7 +529,7 @@ pub extern "C" fn cf_grab_state() -> u32 {
         };
         match (app.grab_point(), app.target()) {
             (Some(p), Some(t)) => {
-                s.vec = [p[0], p[1], p[2], t[0], t[1], t[2]];
+                s.vec = [p[0], p[1], p[2], t[0], t[1], t[2], 0.0, 0.0];
                 1
             }
             _ => 0,
@@ -522,7 +537,7 @@ pub extern "C" fn cf_grab_state() -> u32 {
     })
 }
 
-/// Address of the small vector results (6 × f32).
+/// Address of the small vector results (8 × f32).
 #[allow(unsafe_code)]
 #[no_mangle]
 pub extern "C" fn cf_vec_ptr() -> u32 {
@@ -543,7 +558,129 @@ pub extern "C" fn cf_grabbed_count() -> u32 {
     with_app(0, |a| a.grabbed().len() as u32)
 }
 
-/// Back to the rest shape, at rest, tool released.
+/// Where a sphere of radius `r` (m) moving along the ray `o + t d` first
+/// touches the body's boundary nodes (the only nodes a probe touches),
+/// stopping a hair short: returns its centre's `t`, or −1 when it misses
+/// the body, starts around a node already, or for input that is not finite.
+#[allow(unsafe_code)]
+#[no_mangle]
+pub extern "C" fn cf_probe_cast(
+    ox: f32,
+    oy: f32,
+    oz: f32,
+    dx: f32,
+    dy: f32,
+    dz: f32,
+    r: f32,
+) -> f32 {
+    with_app(-1.0, |a| {
+        a.probe_cast([ox, oy, oz], [dx, dy, dz], r).unwrap_or(-1.0)
+    })
+}
+
+/// Presses the probe, a sphere of radius `r` (m), on the body: its centre is
+/// to reach `(x, y, z)` (m) by the end of the next frame, pressing along
+/// `(dx, dy, dz)` (any length > 0). Without a probe, or with one of another
+/// radius, a new one is made at `(x, y, z)`; if its first step would start
+/// with a node inside it, it is moved out against the press direction
+/// first (the frame's statistics say so). Returns 0, or 1 with the error
+/// at `cf_message_ptr` and nothing changed (no body, a radius that is not
+/// finite and > 0, a point or direction that is not finite, a zero
+/// direction).
+#[allow(unsafe_code)]
+#[no_mangle]
+pub extern "C" fn cf_probe_set(x: f32, y: f32, z: f32, r: f32, dx: f32, dy: f32, dz: f32) -> i32 {
+    with(|s| {
+        let Some(app) = s.app.as_mut() else {
+            s.message = "no body to press on".to_owned();
+            return 1;
+        };
+        match app.set_probe([x, y, z], r, [dx, dy, dz]) {
+            Ok(()) => 0,
+            Err(e) => {
+                s.message = e.to_string();
+                1
+            }
+        }
+    })
+}
+
+/// Sets the Coulomb friction coefficient (static and kinetic) between the
+/// probe and the body, kept for later probes too. Returns 0, or 1 with the
+/// error (not finite or < 0) and nothing changed.
+#[allow(unsafe_code)]
+#[no_mangle]
+pub extern "C" fn cf_probe_friction(mu: f32) -> i32 {
+    with(|s| {
+        let r = match s.app.as_mut() {
+            Some(app) => app.set_probe_friction(mu),
+            None => Ok(()),
+        };
+        match r {
+            Ok(()) => 0,
+            Err(e) => {
+                s.message = e.to_string();
+                1
+            }
+        }
+    })
+}
+
+/// Sets the Coulomb friction coefficient (static and kinetic) between the
+/// body and the ground (none by default). Returns 0, or 1 with the error
+/// (not finite or < 0) and nothing changed.
+#[allow(unsafe_code)]
+#[no_mangle]
+pub extern "C" fn cf_ground_friction(mu: f32) -> i32 {
+    with(|s| {
+        let r = match s.app.as_mut() {
+            Some(app) => app.set_ground_friction(mu),
+            None => Ok(()),
+        };
+        match r {
+            Ok(()) => 0,
+            Err(e) => {
+                s.message = e.to_string();
+                1
+            }
+        }
+    })
+}
+
+/// Takes the probe away.
+#[allow(unsafe_code)]
+#[no_mangle]
+pub extern "C" fn cf_probe_clear() {
+    with_app((), demo::App::clear_probe);
+}
+
+/// When a probe is on the body, writes its centre (where the last step
+/// left it, m), its radius (m), the force the body exerted on it in the
+/// last step (N) and the nodes it held (8 × f32) at `cf_vec_ptr` and
+/// returns 1; otherwise 0.
+#[allow(unsafe_code)]
+#[no_mangle]
+pub extern "C" fn cf_probe_state() -> u32 {
+    with(|s| {
+        let Some(p) = s.app.as_ref().and_then(App::probe) else {
+            return 0;
+        };
+        let (c, f) = (p.position(), p.force());
+        s.vec = [
+            c[0],
+            c[1],
+            c[2],
+            p.radius(),
+            f[0],
+            f[1],
+            f[2],
+            p.contacts() as f32,
+        ];
+        1
+    })
+}
+
+/// Back to the rest shape, at rest, tool released, probe taken away.
 #[allow(unsafe_code)]
 #[no_mangle]
 pub extern "C" fn cf_reset() {
@@ -551,7 +688,7 @@ pub extern "C" fn cf_reset() {
         if let Some(app) = s.app.as_mut() {
             app.reset();
         }
-        s.stats = [0.0; 12];
+        s.stats = [0.0; STATS];
     });
 }
 

@@ -4,7 +4,8 @@
 //   COROFEM_WEB_URL         the served www/ folder (default http://127.0.0.1:8765/)
 //   CHROMIUM                the browser (default /usr/bin/chromium)
 //   COROFEM_WEB_SCREENSHOT  where the screenshot goes (default test-output/web-demo.png); the
-//                           one of the blob's embedded surface goes beside it, as web-surface.png
+//                           one of the blob's embedded surface goes beside it, as web-surface.png,
+//                           and the one of the probe pressed into the blob as web-probe.png
 //   COROFEM_WEB_TIMING      where the measured ms/step goes (default test-output/browser-timing.json)
 //
 // Run: node --test test/browser.test.mjs   (with the folder served; see .ci/web.sh)
@@ -21,6 +22,7 @@ const here = path.dirname(fileURLToPath(import.meta.url));
 const URL = process.env.COROFEM_WEB_URL ?? 'http://127.0.0.1:8765/';
 const SHOT = process.env.COROFEM_WEB_SCREENSHOT ?? path.join(here, '../test-output/web-demo.png');
 const SHOT_SURFACE = path.join(path.dirname(SHOT), 'web-surface.png');
+const SHOT_PROBE = path.join(path.dirname(SHOT), 'web-probe.png');
 const TIMING = process.env.COROFEM_WEB_TIMING ?? path.join(here, '../test-output/browser-timing.json');
 const LAUNCH = {
   executablePath: process.env.CHROMIUM ?? '/usr/bin/chromium',
@@ -178,6 +180,107 @@ test('dragging the beam pulls with a force and deforms it', async () => {
   await page.mouse.up();
   await page.waitForTimeout(200);
   assert.equal(Number(await page.textContent('#force')), 0, 'released: no force');
+  assert.deepEqual(pageErrors, []);
+});
+
+// The probe test's checks while the mouse presses the sphere at (sx, sy).
+async function pressed(sx, sy, before) {
+  await simulate(0.5);
+  const r = await page.evaluate(() => ({
+    probe: demo.probe(), press: demo.press(), stats: Array.from(demo.state.stats),
+    readout: Number(document.getElementById('probe-force').textContent),
+    nodes: Number(document.getElementById('probe-contacts').textContent),
+    drawn: demo.state.drawn, positions: demo.positions(),
+  }));
+  assert.ok(r.probe && r.press, JSON.stringify(r.press));
+  const { force, contacts, radius } = r.probe;
+  const mag = Math.hypot(...force);
+  const along = force.reduce((a, f, k) => a + f * r.press.dir[k], 0);
+  console.log(`probe (radius ${radius.toFixed(3)} m, pressed ${r.press.depth.toFixed(3)} m): force [${force.map((v) => v.toFixed(2))}] N, |F| ${mag.toFixed(2)} N, F·press ${along.toFixed(2)} N, ${contacts} contacts`);
+  assert.ok(Math.abs(radius - 0.06) < 1e-6);
+  assert.ok(Math.abs(r.press.depth - 0.03) < 1e-6, `depth ${r.press.depth}`);
+  assert.ok(contacts > 0, 'no node touches the probe');
+  assert.ok(mag > 1, `probe force ${mag} N`);
+  // The body pushes the probe back out, against the press (aslant: along
+  // the surface's normal, the press along the view).
+  assert.ok(along < -0.1 * mag, `force · press direction = ${along} N of ${mag} N`);
+  // The HUD shows it, and the statistics agree with the probe's own.
+  assert.ok(Math.abs(r.readout - mag) < 0.01 * mag + 0.01, `${r.readout} vs ${mag}`);
+  assert.equal(r.nodes, contacts);
+  assert.deepEqual(r.stats.slice(12, 15), force);
+  assert.equal(r.stats[15], 0, 'the probe was made outside the body');
+  assert.ok([...r.stats, ...force, ...r.probe.centre, ...r.positions].every(Number.isFinite), 'a NaN');
+  assert.equal(r.drawn.sphere, true);
+  // Dented and pushed down: the beam moved, and no node is inside the sphere.
+  const moved = maxMove(before, r.positions);
+  assert.ok(moved > 0.01, `the body moved only ${moved} m`);
+  let inside = Infinity;
+  for (let i = 0; i < r.positions.length; i += 3) {
+    inside = Math.min(inside, Math.hypot(...[0, 1, 2].map((k) => r.positions[i + k] - r.probe.centre[k])) - radius);
+  }
+  console.log(`probe: the body moved up to ${moved.toFixed(3)} m; the nearest node is ${(1000 * inside).toFixed(2)} mm from the sphere`);
+  assert.ok(inside > -1e-3 * radius, `a node ${inside} m inside the sphere`);
+  // Dragged, the sphere slides over the beam, still pressing.
+  await page.mouse.move(sx - 60, sy + 10, { steps: 10 });
+  await simulate(0.3);
+  const slid = await page.evaluate(() => demo.probe());
+  assert.ok(Math.hypot(...slid.centre.map((v, k) => v - r.probe.centre[k])) > 0.02, 'the sphere did not slide');
+  assert.ok(slid.contacts > 0 && slid.force.every(Number.isFinite));
+  // Wheel forward while pressing: deeper.
+  await page.mouse.wheel(0, -200);
+  assert.equal(await page.inputValue('#probe-depth'), '3.5');
+}
+
+test('probe mode: the sphere pressed into the beam is pushed back out and dents it', async () => {
+  await page.check('#mode-probe');
+  assert.match(await page.textContent('#hint'), /^press the body to push the sphere in/);
+  assert.equal(await page.isVisible('#probe-hud'), true);
+  await simulate(0.3);
+  const before = await page.evaluate(() => demo.positions());
+  // Aiming: the sphere rests on the surface under the cursor, translucent,
+  // and nothing touches the body yet. Near the clamp, where the beam still
+  // swinging from the last test moves least.
+  const [sx, sy] = await surfacePoint([-0.3, 0, 0.75]);
+  await page.mouse.move(sx, sy);
+  await page.waitForFunction(() => demo.state.ghost !== null);
+  assert.equal(await page.evaluate(() => demo.probe()), null);
+  // Pressed: 3 cm (the default press depth) along the cursor's ray.
+  await page.mouse.down();
+  try {
+    await pressed(sx, sy, before);
+  } finally {
+    await page.mouse.up();
+  }
+  await page.waitForTimeout(200);
+  assert.equal(await page.evaluate(() => demo.probe()), null, 'released: no probe');
+  assert.equal(Number(await page.textContent('#probe-force')), 0, 'released: no force');
+  await page.fill('#probe-depth', '3');
+
+  // Through the module, a sphere made inside the beam: the core refuses its
+  // first step, the page moves it out against its press direction and says
+  // so; bad input is refused with a return code and changes nothing.
+  const odd = await page.evaluate(() => {
+    const x = demo.exports;
+    const p = demo.positions();
+    let top = 0; // the highest node
+    for (let i = 0; i < p.length; i += 3) if (p[i + 2] > p[top + 2]) top = i;
+    const bad = [x.cf_probe_set(NaN, 0, 0, 0.06, 0, 0, -1), x.cf_probe_set(0, 0, 0.6, -1, 0, 0, -1),
+      x.cf_probe_set(0, 0, 0.6, 0.06, 0, 0, 0), x.cf_probe_friction(-0.5), x.cf_probe_cast(NaN, 0, 0, 0, 0, -1, 0.06)];
+    const none = demo.probe();
+    const set = x.cf_probe_set(p[top], p[top + 1], p[top + 2] - 0.02, 0.06, 0, 0, -1);
+    return { bad, none, set };
+  });
+  assert.deepEqual(odd.bad, [1, 1, 1, 1, -1]);
+  assert.equal(odd.none, null);
+  assert.equal(odd.set, 0);
+  await page.waitForFunction(() => /moved out/.test(document.getElementById('probe-status').textContent));
+  await simulate(0.1);
+  const held = await page.evaluate(() => ({ probe: demo.probe(), finite: demo.positions().every(Number.isFinite) }));
+  assert.ok(held.finite && held.probe.force.every(Number.isFinite), JSON.stringify(held));
+  await page.evaluate(() => demo.exports.cf_probe_clear());
+  await page.check('#mode-pull');
+  assert.equal(await page.isVisible('#probe-hud'), false);
+  assert.equal((await status()).error, false);
   assert.deepEqual(pageErrors, []);
 });
 
@@ -461,6 +564,43 @@ test('screenshots with multisampling: the beam pulled, the blob pulled with the 
   const l = await look(pg);
   assert.equal(l.drawn.surfaceTriangles, 6912);
   await pg.screenshot({ path: SHOT_SURFACE });
+  await pg.mouse.up();
+  await pg.close();
+  assert.deepEqual(pageErrors, []);
+});
+
+test('screenshot with multisampling: the probe pressed into the soft blob', async () => {
+  const pg = await browser.newPage({ viewport: { width: 1280, height: 760 } });
+  pg.on('pageerror', (e) => pageErrors.push(e.message));
+  await pg.goto(`${URL}?antialias=on`);
+  await pg.waitForFunction(() => window.demo?.ready === true, null, { timeout: 20000 });
+  const sim = async (seconds) => {
+    const t0 = await pg.evaluate(() => window.demo.state.stats[8]);
+    await pg.waitForFunction((t) => window.demo.state.stats[8] >= t, t0 + seconds, { timeout: 30000 });
+  };
+  // The blob, softer (1e5 Pa), a 6 cm sphere pressed 10 cm along the view into its top;
+  // friction on the ground keeps the blob from sliding away from the press.
+  await pg.selectOption('#body', '2');
+  await pg.fill('#young', '5');
+  await pg.fill('#ground-mu', '0.8');
+  await pg.check('#mode-probe');
+  await pg.fill('#probe-depth', '10');
+  const box = await pg.locator('#canvas').boundingBox();
+  await pg.mouse.move(box.x + 40, box.y + box.height - 40);
+  await pg.mouse.wheel(0, -350); // closer
+  await sim(0.5);
+  const [sx, sy] = await surfacePoint([0, 0, 0.32], pg);
+  await pg.mouse.move(sx, sy);
+  await pg.mouse.down();
+  await sim(0.6);
+  const p = await pg.evaluate(() => demo.probe());
+  assert.ok(p && p.contacts > 0 && Math.hypot(...p.force) > 1, JSON.stringify(p));
+  console.log(`screenshot: the blob at 1e5 Pa, probe pressed 10 cm: |F| ${Math.hypot(...p.force).toFixed(2)} N, ${p.contacts} contacts`);
+  // Seen lower, from the side, the dent shows around the sphere.
+  await pg.evaluate(() => { demo.cam.pitch = 0.22; demo.cam.yaw -= 0.35; });
+  await sim(0.1);
+  fs.mkdirSync(path.dirname(SHOT_PROBE), { recursive: true });
+  await pg.screenshot({ path: SHOT_PROBE });
   await pg.mouse.up();
   await pg.close();
   assert.deepEqual(pageErrors, []);

@@ -85,6 +85,65 @@ test('the built-in bodies carry their smooth surfaces; a surface file is read an
   assert.equal(x.cf_embedded_vertex_count(), 4);
 });
 
+test('the probe: pressed into the cube it is pushed back; bad input is refused; one inside is moved out', () => {
+  const text = () => new TextDecoder().decode(new Uint8Array(x.memory.buffer, x.cf_message_ptr(), x.cf_message_len()));
+  const stats = () => Array.from(new Float32Array(x.memory.buffer, x.cf_stats_ptr(), 16));
+  const probe = () => (x.cf_probe_state() ? Array.from(new Float32Array(x.memory.buffer, x.cf_vec_ptr(), 8)) : null);
+  assert.equal(x.cf_load_body(0, 99), 0); // the cube on the ground, top at z = 0.3 m
+  assert.equal(x.cf_set_params(2e6, 0.3, 4, 0.002, 4, 1, 2), 0);
+  x.cf_step(40);
+  const r = 0.06;
+  // Coming down from above, the sphere stops short of the top nodes.
+  const t = x.cf_probe_cast(0.02, 0.01, 2, 0, 0, -1, r);
+  assert.ok(Math.abs(2 - t - r - 0.3) < 0.01, `cast t = ${t}`);
+  for (const bad of [[NaN, 0, 2, 0, 0, -1, r], [0, 0, 2, 0, 0, 0, r], [0, 0, 2, 0, 0, -1, -1], [0, 0, 0.3, 0, 0, -1, r], [3, 0, 2, 0, 0, -1, r]]) {
+    assert.equal(x.cf_probe_cast(...bad), -1, `cast ${bad}`);
+  }
+  // Bad input: refused with a message, no probe made.
+  for (const bad of [[NaN, 0, 1, r, 0, 0, -1], [0, 0, 1, NaN, 0, 0, -1], [0, 0, 1, 0, 0, 0, -1], [0, 0, 1, r, 0, 0, 0],
+    [0, 0, Infinity, r, 0, 0, -1], [0, 0, 1, r, NaN, 0, -1]]) {
+    assert.equal(x.cf_probe_set(...bad), 1, `set ${bad}`);
+    assert.match(text(), /probe/);
+    assert.equal(probe(), null);
+  }
+  assert.equal(x.cf_probe_friction(-1), 1);
+  assert.equal(x.cf_probe_friction(NaN), 1);
+  assert.equal(x.cf_probe_friction(0.3), 0);
+  // Pressed 3 cm in over 80 steps, then held.
+  const top = 2 - t;
+  assert.equal(x.cf_probe_set(0.02, 0.01, top, r, 0, 0, -1), 0);
+  for (let k = 1; k <= 20; k++) {
+    assert.equal(x.cf_probe_set(0.02, 0.01, top - 0.03 * k / 20, r, 0, 0, -1), 0);
+    assert.equal(x.cf_step(4), 4);
+  }
+  assert.equal(x.cf_step(20), 20);
+  const s = stats();
+  const p = probe();
+  console.log(`probe 6 cm, 3 cm into the cube: force ${p.slice(4, 7).map((v) => v.toFixed(1))} N, ${p[7]} contacts`);
+  assert.deepEqual(p.slice(0, 4).map((v) => +v.toFixed(5)), [0.02, 0.01, +(top - 0.03).toFixed(5), r]);
+  assert.ok(p[6] > 50, `the body pushes the probe up: ${p.slice(4, 7)}`);
+  assert.ok(p[7] > 0 && s[11] === p[7] && s[2] >= p[7]);
+  assert.deepEqual(s.slice(12, 15), p.slice(4, 7));
+  assert.equal(s[15], 0);
+  // A bad goal changes nothing.
+  assert.equal(x.cf_probe_set(NaN, 0, 0, r, 0, 0, -1), 1);
+  assert.deepEqual(probe(), p);
+  x.cf_probe_clear();
+  assert.equal(probe(), null);
+  // Made 2 cm inside the top: moved out upwards, then pressed in from there.
+  x.cf_step(50);
+  assert.equal(x.cf_probe_set(0, 0, 0.28, r, 0, 0, -1), 0);
+  assert.equal(x.cf_step(8), 8);
+  assert.equal(stats()[15], 1, 'moved out');
+  assert.ok(probe()[6] > 0);
+  assert.equal(x.cf_step(8), 8);
+  assert.equal(stats()[15], 0);
+  const n = x.cf_node_count();
+  assert.ok(new Float32Array(x.memory.buffer, x.cf_positions_ptr(), 3 * n).every(Number.isFinite));
+  x.cf_reset();
+  assert.equal(probe(), null);
+});
+
 test('time per step in Node (the beam, default settings)', () => {
   assert.equal(x.cf_load_body(1, 99), 0);
   assert.equal(x.cf_set_params(2e6, 0.3, 0, 0.002, 10, 1, 0), 0);

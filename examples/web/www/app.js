@@ -2,7 +2,8 @@
 // imports), draws the body — its embedded surface smooth-shaded, or the
 // tetrahedra's boundary flat-shaded — with WebGL 2 (gl.js) onto a 2D canvas
 // that holds the ground, the shadow and the tool (Canvas 2D alone where
-// WebGL 2 is missing), and turns mouse drags into the haptic tool's target.
+// WebGL 2 is missing), and turns mouse drags into the haptic tool's target
+// (pull mode) or into a rigid sphere pressed on the body (probe mode).
 //
 // Coordinates: metres, z up. The camera orbits `cam.target`.
 
@@ -36,13 +37,17 @@ const state = {
   msPerStep: 0,        // smoothed wasm time per step
   fps: 0,
   lastFrame: 0,
-  stats: new Float32Array(12),
+  stats: new Float32Array(16),
   body: null,          // { name, nodes, tets, tris: Uint32Array, fixedTris: Uint8Array, weight, embedded }
   file: null,          // { name, bytes } of the last mesh file loaded
   surfaceFile: null,   // { name, bytes } of the surface file embedded in the body, if any
   msSurface: 0,        // smoothed wasm time to move and shade the embedded surface
   drawn: null,         // what the last frame drew: { surfaceTriangles, tetTriangles, edges }
   pull: null,          // { plane point, normal } while dragging the body
+  mode: 'pull',        // the mouse's tool: 'pull' (spring) or 'probe' (sphere)
+  hover: null,         // [px, py], the cursor on the canvas (device pixels), when over it
+  ghost: null,         // { centre, radius }: where the probe would touch, drawn while hovering
+  press: null,         // { base, normal, dir, depth } while pressing the probe
   orbit: null,         // { x, y, yaw, pitch } while orbiting
   error: null,
 };
@@ -55,7 +60,16 @@ function fmtSi(v) {
   const e = Math.floor(Math.log10(v));
   return `${(v / 10 ** e).toFixed(1)}e${e}`;
 }
+// The probe's radius and press depth (m), friction coefficient.
+const probeRadius = () => Number($('probe-r').value) / 100;
+const probeDepth = () => Number($('probe-depth').value) / 100;
+const probeMu = () => Number($('probe-mu').value);
+const groundMu = () => Number($('ground-mu').value);
 function showControls() {
+  $('probe-r-out').textContent = `${$('probe-r').value} cm`;
+  $('probe-depth-out').textContent = `${$('probe-depth').value} cm`;
+  $('probe-mu-out').textContent = probeMu().toFixed(2);
+  $('ground-mu-out').textContent = groundMu().toFixed(2);
   $('young-out').textContent = `${fmtSi(young())} Pa`;
   $('poisson-out').textContent = Number($('poisson').value).toFixed(2);
   $('cg-out').textContent = $('cg').value;
@@ -78,7 +92,35 @@ for (const id of ['young', 'poisson', 'cg', 'dt', 'method', 'gravity', 'precondi
   $(id).addEventListener('input', applyParams);
 }
 $('substeps').addEventListener('input', showControls);
+for (const id of ['probe-r', 'probe-depth']) $(id).addEventListener('input', showControls);
+$('probe-mu').addEventListener('input', applyFriction);
+$('ground-mu').addEventListener('input', applyFriction);
+// Friction (Coulomb, static = kinetic): the probe's and the ground's.
+function applyFriction() {
+  showControls();
+  if (x.cf_probe_friction(probeMu()) !== 0) setProbeStatus(message(), true);
+  if (x.cf_ground_friction(groundMu()) !== 0) setStatus(message(), true);
+}
+function setProbeStatus(text, isError = false) {
+  $('probe-status').textContent = text;
+  $('probe-status').className = isError ? 'error' : '';
+}
+for (const id of ['mode-pull', 'mode-probe']) $(id).addEventListener('change', setMode);
+// Pull: the spring tool; probe: the sphere. Switching lets go of either.
+function setMode() {
+  endDrag();
+  state.mode = $('mode-probe').checked ? 'probe' : 'pull';
+  const probe = state.mode === 'probe';
+  $('probe-controls').className = probe ? '' : 'off';
+  $('probe-hud').hidden = !probe;
+  canvas.classList.toggle('probing', probe);
+  $('hint').textContent = probe
+    ? 'press the body to push the sphere in along the view · drag to slide it · wheel while pressing: deeper or shallower · drag elsewhere to orbit'
+    : 'drag the body to pull it · drag elsewhere to orbit · wheel to zoom';
+  setProbeStatus('');
+}
 $('reset').addEventListener('click', () => {
+  endDrag();
   x.cf_reset();
   state.steps = 0;
   if (state.body) cam.target = [...state.body.centre];
@@ -224,6 +266,10 @@ function showView() {
 }
 
 function afterLoad(name) {
+  // A new body: nothing holds or presses it; the friction carries over.
+  state.pull = state.press = null;
+  canvas.classList.remove('pulling');
+  applyFriction();
   const n = x.cf_node_count();
   const tris = u32(x.cf_surface_ptr(), 3 * x.cf_surface_count()).slice();
   const fixed = new Uint8Array(n);
@@ -337,6 +383,11 @@ canvas.addEventListener('pointerdown', (e) => {
   const [px, py] = canvasPoint(e);
   const c = camera();
   const d = ray(c, px, py);
+  if (state.mode === 'probe') {
+    if (e.button === 0 && state.body && pressProbe(c, d)) return;
+    state.orbit = { x: e.clientX, y: e.clientY, yaw: cam.yaw, pitch: cam.pitch };
+    return;
+  }
   const t = state.body ? x.cf_pick(...c.eye, ...d) : -1;
   if (e.button === 0 && t > 0) {
     const hit = add(c.eye, scale(d, t));
@@ -349,8 +400,52 @@ canvas.addEventListener('pointerdown', (e) => {
   }
   state.orbit = { x: e.clientX, y: e.clientY, yaw: cam.yaw, pitch: cam.pitch };
 });
+// Probe mode, the button goes down at the cursor's ray `d`: the sphere is
+// made where it first touches the body coming along the ray (so that it
+// never starts inside), and from the next frame on pressed along the ray to
+// the press depth. Returns false when the ray's sphere misses the body.
+function pressProbe(c, d) {
+  const r = probeRadius();
+  const t = x.cf_probe_cast(...c.eye, ...d, r);
+  if (!(t > 0)) return false;
+  const base = add(c.eye, scale(d, t));
+  if (x.cf_probe_set(...base, r, ...d) !== 0) {
+    setProbeStatus(message(), true);
+    return false;
+  }
+  // Slid in the plane through the touch point facing the camera.
+  state.press = { base, normal: c.f, dir: d, depth: 0 };
+  state.ghost = null;
+  setProbeStatus('');
+  canvas.classList.add('pulling');
+  return true;
+}
+// Each frame while pressing: the depth moves toward the press depth at
+// 0.5 m/s of simulated time, and the probe is sent there; the module moves
+// it in equal parts over the frame's steps.
+function driveProbe(simSeconds) {
+  const p = state.press;
+  if (!p) return;
+  const goal = probeDepth(), rate = 0.5 * simSeconds;
+  p.depth += Math.max(-rate, Math.min(rate, goal - p.depth));
+  if (x.cf_probe_set(...add(p.base, scale(p.dir, p.depth)), probeRadius(), ...p.dir) !== 0) {
+    setProbeStatus(message(), true);
+    endDrag();
+  }
+}
+canvas.addEventListener('pointerleave', () => { state.hover = null; });
 canvas.addEventListener('pointermove', (e) => {
-  if (state.pull) {
+  state.hover = canvasPoint(e);
+  if (state.press) {
+    const [px, py] = state.hover;
+    const c = camera();
+    const d = ray(c, px, py);
+    const p = state.press;
+    const den = dot(d, p.normal);
+    if (Math.abs(den) < 1e-6) return;
+    const t = dot(sub(p.base, c.eye), p.normal) / den;
+    p.base = add(c.eye, scale(d, t));
+  } else if (state.pull) {
     const [px, py] = canvasPoint(e);
     const c = camera();
     const d = ray(c, px, py);
@@ -365,7 +460,9 @@ canvas.addEventListener('pointermove', (e) => {
 });
 function endDrag() {
   if (state.pull) x.cf_release();
+  if (state.press) x.cf_probe_clear();
   state.pull = null;
+  state.press = null;
   state.orbit = null;
   canvas.classList.remove('pulling');
 }
@@ -373,6 +470,13 @@ canvas.addEventListener('pointerup', endDrag);
 canvas.addEventListener('pointercancel', endDrag);
 canvas.addEventListener('wheel', (e) => {
   e.preventDefault();
+  if (state.press) {
+    // While pressing, the wheel sets the press depth: forward deeper.
+    const v = Number($('probe-depth').value) - 0.0025 * e.deltaY;
+    $('probe-depth').value = String(Math.max(0, Math.min(12, v)));
+    showControls();
+    return;
+  }
   cam.dist = Math.max(0.2, Math.min(20, cam.dist * Math.exp(0.001 * e.deltaY)));
 }, { passive: false });
 
@@ -457,9 +561,10 @@ function drawBody(c, p) {
     };
   }
   const edges = $('show-edges').checked;
+  const sphere = probeSphere();
   if (gl) {
-    const rect = screenRect(c, skin ? skin.positions : p);
-    state.drawn = gl.draw(c, rect, p, skin, edges);
+    const rect = withSphere(c, screenRect(c, skin ? skin.positions : p), sphere);
+    state.drawn = gl.draw(c, rect, p, skin, edges, sphere);
     ctx.drawImage(gl.canvas, rect.x, rect.y);
     return;
   }
@@ -487,6 +592,54 @@ function drawBody(c, p) {
     ctx.lineWidth = 1;
     ctx.stroke();
   }
+  if (sphere) sphere2d(c, sphere);
+}
+
+// The sphere to draw: the probe where the last step left it, or, hovering
+// in probe mode, where it would touch the body ({ centre, radius, ghost }).
+function probeSphere() {
+  if (x.cf_probe_state()) {
+    const v = f32(x.cf_vec_ptr(), 8);
+    return { centre: [v[0], v[1], v[2]], radius: v[3], ghost: false };
+  }
+  const g = state.ghost;
+  return g ? { centre: g.centre, radius: g.radius, ghost: true } : null;
+}
+// Where the probe would touch the body along the ray under the cursor.
+function updateGhost(c) {
+  state.ghost = null;
+  if (state.mode !== 'probe' || state.press || state.orbit || !state.hover || !state.body) return;
+  const d = ray(c, ...state.hover);
+  const r = probeRadius();
+  const t = x.cf_probe_cast(...c.eye, ...d, r);
+  if (t > 0) state.ghost = { centre: add(c.eye, scale(d, t)), radius: r };
+}
+// The rectangle `rect` grown to hold the sphere's outline.
+function withSphere(c, rect, sphere) {
+  if (!sphere) return rect;
+  const q = project(c, sphere.centre);
+  if (!(q[2] > 1.05 * sphere.radius)) return { x: 0, y: 0, w: canvas.width, h: canvas.height };
+  // The outline's radius on screen, with a margin for its perspective.
+  const s = 1.3 * c.focal * sphere.radius / (q[2] - sphere.radius) + 4;
+  const x0 = Math.max(0, Math.min(rect.x, Math.floor(q[0] - s))), y0 = Math.max(0, Math.min(rect.y, Math.floor(q[1] - s)));
+  const x1 = Math.min(canvas.width, Math.max(rect.x + rect.w, Math.ceil(q[0] + s)));
+  const y1 = Math.min(canvas.height, Math.max(rect.y + rect.h, Math.ceil(q[1] + s)));
+  return x1 > x0 && y1 > y0 ? { x: x0, y: y0, w: x1 - x0, h: y1 - y0 } : rect;
+}
+// Canvas 2D: the sphere as a shaded disc over the body.
+function sphere2d(c, sphere) {
+  const q = project(c, sphere.centre);
+  if (!(q[2] > 0.05)) return;
+  const rad = c.focal * sphere.radius / q[2];
+  const g = ctx.createRadialGradient(q[0] - 0.35 * rad, q[1] - 0.4 * rad, 0.1 * rad, q[0], q[1], rad);
+  g.addColorStop(0, '#f4f6f9');
+  g.addColorStop(1, '#6d737c');
+  ctx.globalAlpha = sphere.ghost ? 0.35 : 1;
+  ctx.fillStyle = g;
+  ctx.beginPath();
+  ctx.arc(q[0], q[1], rad, 0, 2 * Math.PI);
+  ctx.fill();
+  ctx.globalAlpha = 1;
 }
 
 // The pixels the points `p` (x y z each) cover on the canvas, with a margin
@@ -572,18 +725,41 @@ function drawTool(c, p) {
   ctx.lineWidth = 1.5 * dpr();
   ctx.beginPath(); ctx.moveTo(pa[0], pa[1]); ctx.lineTo(pt[0], pt[1]); ctx.stroke();
   ctx.setLineDash([]);
-  // The force on the tool, from the cursor: its length grows with |F| and
-  // saturates at 0.4 body sizes, a few times the body's weight.
+  // The force on the tool, from the cursor.
   let tip = pt;
   if (mag > 1e-6) {
-    const len = 0.4 * Math.max(0.3, state.body.size) * Math.tanh(0.05 + mag / Math.max(state.body.weight, 1e-3));
-    tip = project(c, add(target, scale(force, len / mag)));
+    tip = project(c, add(target, scale(force, arrowLength(mag) / mag)));
     arrow(pt, tip, '#f29e4c');
   }
   ctx.beginPath();
   ctx.arc(pt[0], pt[1], 4 * dpr(), 0, 2 * Math.PI);
   ctx.fillStyle = '#fff';
   ctx.fill();
+  forceLabel(mag, tip);
+}
+
+// The arrow's length for a force of `mag` N (m): it grows with |F| and
+// saturates at 0.4 body sizes, a few times the body's weight.
+const arrowLength = (mag) => 0.4 * Math.max(0.3, state.body.size) * Math.tanh(0.05 + mag / Math.max(state.body.weight, 1e-3));
+
+// The force the body exerts on the probe, from the sphere's surface on the
+// side it points to (away from the body), and its size in newtons.
+function drawProbe(c) {
+  if (!x.cf_probe_state()) return;
+  const v = f32(x.cf_vec_ptr(), 8);
+  const centre = [v[0], v[1], v[2]], r = v[3], force = [v[4], v[5], v[6]];
+  const mag = Math.hypot(...force);
+  if (!(mag > 1e-6)) return;
+  const u = scale(force, 1 / mag);
+  const from = add(centre, scale(u, r));
+  if (dot(sub(from, c.eye), c.f) < 0.05) return;
+  const to = add(from, scale(u, arrowLength(mag)));
+  const pf = project(c, from), tip = project(c, to);
+  arrow(pf, tip, '#f29e4c');
+  forceLabel(mag, tip);
+}
+
+function forceLabel(mag, tip) {
   const label = `${mag.toFixed(mag < 10 ? 2 : 1)} N`;
   const [lx, ly] = [tip[0] + 8 * dpr(), tip[1] - 6 * dpr()];
   ctx.font = `bold ${14 * dpr()}px system-ui, sans-serif`;
@@ -631,8 +807,10 @@ function draw() {
   } else {
     drawGround(c);
   }
+  updateGhost(c);
   drawBody(c, p);
   drawTool(c, p);
+  drawProbe(c);
 }
 
 // ---------------------------------------------------------------- loop
@@ -646,6 +824,11 @@ function showStats() {
   $('inverted').textContent = s[1] | 0;
   $('inverted').className = s[1] > 0 ? 'bad' : '';
   $('force').textContent = Math.hypot(s[3], s[4], s[5]).toFixed(2);
+  $('probe-force').textContent = Math.hypot(s[12], s[13], s[14]).toFixed(2);
+  $('probe-contacts').textContent = s[11] | 0;
+  if (s[15]) {
+    setProbeStatus('The sphere would have started inside the body: it was moved out against the press direction, and presses in from there.');
+  }
   $('angmom').textContent = s[9].toPrecision(3);
   if (s[7] && !state.error) {
     setStatus('A step diverged and was refused: lower the time step, raise the CG iterations or press Reset.', true);
@@ -657,10 +840,11 @@ function frame(now) {
   try {
     if (state.body && !state.paused) {
       const n = Number($('substeps').value);
+      driveProbe(n * dtMs() / 1000);
       const t0 = performance.now();
       const done = x.cf_step(n);
       const t1 = performance.now();
-      state.stats.set(f32(x.cf_stats_ptr(), 12));
+      state.stats.set(f32(x.cf_stats_ptr(), 16));
       if (done > 0) {
         const ms = (t1 - t0) / done;
         state.msPerStep = state.msPerStep ? 0.95 * state.msPerStep + 0.05 * ms : ms;
@@ -685,6 +869,7 @@ function frame(now) {
 // ---------------------------------------------------------------- start
 showControls();
 applyParams();
+setMode();
 $('renderer').textContent = gl
   ? `WebGL 2${gl.antialias ? '' : ', no multisampling'}`
   : 'Canvas 2D (flat shading, sorted triangles)';
@@ -702,6 +887,15 @@ window.demo = {
   surface: () => Array.from(state.body.tris),
   renderer: gl ? 'webgl2' : '2d',
   eye: () => camera().eye,
+  cam, // the orbit camera: { yaw, pitch, dist, target }
+  // The probe as the module holds it ({ centre, radius, force, contacts }),
+  // or null; and the press the mouse makes ({ dir, depth }), or null.
+  probe: () => {
+    if (!x.cf_probe_state()) return null;
+    const v = Array.from(f32(x.cf_vec_ptr(), 8));
+    return { centre: v.slice(0, 3), radius: v[3], force: v.slice(4, 7), contacts: v[7] };
+  },
+  press: () => (state.press ? { dir: [...state.press.dir], depth: state.press.depth } : null),
   draw,
   // Canvas point (CSS pixels, relative to the canvas) of a world point.
   screenOf: (p) => {

@@ -1,12 +1,14 @@
 // The body in WebGL 2: the embedded surface smooth-shaded by its vertex
 // normals (computed in the module), or the tetrahedra's boundary flat-shaded,
-// and the boundary's edges over either. Drawn into an offscreen canvas that
+// the boundary's edges over either, and the probe's sphere. Drawn into an offscreen canvas that
 // app.js copies onto its 2D canvas between the ground and the tool, so the
 // page keeps one canvas. Returns null where WebGL 2 is missing (app.js then
 // draws with Canvas 2D).
 
 const VERTEX = `#version 300 es
 uniform mat4 uViewProj;
+// The probe's sphere: centre and radius (w > 0) scale the unit sphere.
+uniform vec4 uSphere;
 layout(location = 0) in vec3 aPos;
 layout(location = 1) in vec3 aNormal;
 layout(location = 2) in float aHeld;
@@ -14,14 +16,16 @@ out vec3 vPos;
 out vec3 vNormal;
 out float vHeld;
 void main() {
-  vPos = aPos;
+  vec3 p = uSphere.w > 0.0 ? uSphere.xyz + uSphere.w * aPos : aPos;
+  vPos = p;
   vNormal = aNormal;
   vHeld = aHeld;
-  gl_Position = uViewProj * vec4(aPos, 1.0);
+  gl_Position = uViewProj * vec4(p, 1.0);
 }`;
 
 // uMode 0: smooth (interpolated vertex normals), 1: flat (the triangle's own
-// normal, from screen derivatives), 2: plain colour (lines). Lighting as the
+// normal, from screen derivatives), 2: plain colour (lines), 3: the probe's
+// sphere, smooth in the colour uColor (its alpha: translucent while aiming). Lighting as the
 // Canvas 2D path: a key light fixed in the world, a head light, ambient; the
 // smooth surface adds a highlight. Back faces (seen from inside: an open or
 // inside-out surface) are drawn in a warm colour so they stand out.
@@ -51,13 +55,15 @@ void main() {
   }
   vec3 base = vHeld > 0.5 ? vec3(120.0, 124.0, 132.0) / 255.0 : vec3(86.0, 156.0, 214.0) / 255.0;
   if (!gl_FrontFacing) base = vec3(214.0, 128.0, 86.0) / 255.0;
+  if (uMode == 3) base = uColor.rgb;
   float s = 0.3 + 0.62 * max(0.0, dot(n, uLight)) + 0.12 * max(0.0, dot(n, v));
   vec3 c = min(base * s, vec3(1.0));
-  if (uMode == 0) {
+  if (uMode == 0 || uMode == 3) {
     vec3 h = normalize(uLight + v);
-    c += 0.22 * pow(max(0.0, dot(n, h)), 48.0);
+    c += (uMode == 3 ? 0.5 : 0.22) * pow(max(0.0, dot(n, h)), 48.0);
   }
-  outColor = vec4(min(c, vec3(1.0)), 1.0);
+  float a = uMode == 3 ? uColor.a : 1.0;
+  outColor = vec4(min(c, vec3(1.0)) * a, a);
 }`;
 
 function compile(gl, type, src) {
@@ -100,6 +106,7 @@ export function createRenderer(antialias = 'auto') {
   const loc = (name) => gl.getUniformLocation(program, name);
   const u = {
     viewProj: loc('uViewProj'), mode: loc('uMode'), eye: loc('uEye'), light: loc('uLight'), color: loc('uColor'),
+    sphere: loc('uSphere'),
   };
 
   // A mesh: positions (and normals) re-uploaded each frame, per-vertex held
@@ -153,6 +160,13 @@ export function createRenderer(antialias = 'auto') {
   }
 
   let tets = null, surface = null;
+  // The unit sphere (positions are normals), for the probe: made once.
+  const ball = unitSphere(24, 16);
+  const sphere = mesh(ball.positions.length / 3, ball.indices, new Uint8Array(ball.positions.length / 3), true, null);
+  gl.bindBuffer(gl.ARRAY_BUFFER, sphere.pos);
+  gl.bufferSubData(gl.ARRAY_BUFFER, 0, ball.positions);
+  gl.bindBuffer(gl.ARRAY_BUFFER, sphere.nrm);
+  gl.bufferSubData(gl.ARRAY_BUFFER, 0, ball.positions);
 
   return {
     canvas,
@@ -173,8 +187,10 @@ export function createRenderer(antialias = 'auto') {
     // software renderer clears and copies small. `cam`: app.js's camera;
     // `nodes`: node positions; `skin`: { positions, normals } of the
     // embedded surface when it is to be drawn; `edges`: draw the boundary's
-    // edges on top. Returns what was drawn.
-    draw(cam, rect, nodes, skin, edges) {
+    // edges on top; `ball`: the probe's sphere ({ centre, radius, ghost }:
+    // translucent, over the body, while aiming) or null. Returns what was
+    // drawn.
+    draw(cam, rect, nodes, skin, edges, ball) {
       const width = 64 * Math.ceil(rect.w / 64), height = 64 * Math.ceil(rect.h / 64);
       if (canvas.width !== width || canvas.height !== height) {
         canvas.width = width;
@@ -188,6 +204,7 @@ export function createRenderer(antialias = 'auto') {
       gl.uniformMatrix4fv(u.viewProj, false, viewProj(cam, rect.x, rect.y, width, height));
       gl.uniform3fv(u.eye, cam.eye);
       gl.uniform3fv(u.light, cam.light);
+      gl.uniform4f(u.sphere, 0, 0, 0, 0);
       gl.enable(gl.DEPTH_TEST);
       gl.depthFunc(gl.LEQUAL);
       gl.disable(gl.BLEND);
@@ -230,10 +247,51 @@ export function createRenderer(antialias = 'auto') {
         gl.disable(gl.BLEND);
         drawn.edges = tets.edgeCount / 2;
       }
+      if (ball) {
+        // Pressed, hidden where the body wraps it; aiming, a glass sphere
+        // that leaves the depth alone.
+        gl.uniform1i(u.mode, 3);
+        gl.uniform4f(u.sphere, ...ball.centre, ball.radius);
+        gl.uniform4f(u.color, 0.86, 0.88, 0.91, ball.ghost ? 0.4 : 1);
+        if (ball.ghost) {
+          gl.enable(gl.BLEND);
+          gl.blendFunc(gl.ONE, gl.ONE_MINUS_SRC_ALPHA);
+          gl.depthMask(false);
+        }
+        gl.enable(gl.CULL_FACE);
+        gl.bindVertexArray(sphere.vao);
+        gl.drawElements(gl.TRIANGLES, sphere.count, gl.UNSIGNED_INT, 0);
+        gl.disable(gl.CULL_FACE);
+        gl.depthMask(true);
+        gl.disable(gl.BLEND);
+        gl.uniform4f(u.sphere, 0, 0, 0, 0);
+        drawn.sphere = true;
+      }
       gl.bindVertexArray(null);
       return drawn;
     },
   };
+}
+
+// A unit sphere of `slices` × `stacks` quads (positions, which are also its
+// normals, and triangle indices wound counter-clockwise seen from outside).
+function unitSphere(slices, stacks) {
+  const positions = [], indices = [];
+  for (let j = 0; j <= stacks; j++) {
+    const th = Math.PI * j / stacks;
+    for (let i = 0; i <= slices; i++) {
+      const ph = 2 * Math.PI * i / slices;
+      positions.push(Math.sin(th) * Math.cos(ph), Math.sin(th) * Math.sin(ph), Math.cos(th));
+    }
+  }
+  const w = slices + 1;
+  for (let j = 0; j < stacks; j++) {
+    for (let i = 0; i < slices; i++) {
+      const a = j * w + i, b = a + w;
+      indices.push(a, b, a + 1, a + 1, b, b + 1);
+    }
+  }
+  return { positions: new Float32Array(positions), indices: new Uint32Array(indices) };
 }
 
 // The perspective of app.js's `project` as a column-major matrix, for the
