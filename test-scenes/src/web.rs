@@ -820,9 +820,12 @@ impl App {
     /// distance of the ray from the node, at `t = s − √(radius² − q²) / |d|`.
     pub fn probe_cast(&self, origin: [f32; 3], dir: [f32; 3], radius: f32) -> Option<f32> {
         let dd = dot(dir, dir);
-        if !(dd > 0.0 && dd.is_finite() && radius > 0.0 && radius.is_finite())
-            || !origin.iter().all(|v| v.is_finite())
-        {
+        let usable = dd > 0.0
+            && dd.is_finite()
+            && radius > 0.0
+            && radius.is_finite()
+            && origin.iter().all(|v| v.is_finite());
+        if !usable {
             return None;
         }
         let len = dd.sqrt();
