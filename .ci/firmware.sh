@@ -13,7 +13,10 @@
 #     (_fpu-product-vmul), and with the core's features two-level and
 #     nalgebra compiled in but unused: same hash. Every size is also built
 #     running the two-level preconditioner (the firmware's feature
-#     two-level), against the host's and wasm32's hashes of that run;
+#     two-level), against the host's and wasm32's hashes of that run.
+#     The reference size is also built with the features ground, probe
+#     and probe + friction (the scene in contact): the host's hashes of
+#     that scene, and contacts made;
 #  4. the scene is a `static StaticScene`: an empty scene is all zero bits,
 #     so it must land in .bss. Every build's .data stays under 1 KiB
 #     (MAX_DATA), and the flash images (vectors, code, constants, .data's
@@ -41,6 +44,10 @@ MODULE="$CARGO_TARGET_DIR/wasm32-unknown-unknown/release/corofem_wasm_hash.wasm"
 QEMU=(qemu-system-arm -machine mps2-an386 -cpu cortex-m4 -nographic -monitor none
       -serial null -semihosting-config enable=on,target=native -icount shift=0 -kernel)
 REFERENCE=10x2x2
+# The scene in contact: the firmware's features and the obstacles they
+# give (ContactSet::name, the host's firmware-scene-<set> lines).
+CONTACT_FEATURES=(ground probe probe,friction)
+CONTACT_SETS=(ground ground-probe ground-probe-friction)
 PROOF_SYMBOL=corofem_firmware_panic_is_reachable
 # Bytes of .data allowed: the runtime's and defmt's few statics. A scene in
 # .data (a non-zero byte in its initial value) is kilobytes.
@@ -114,6 +121,12 @@ step "host: the firmware scene at every size"
 # two-level preconditioner (firmware-scene-two-level lines).
 grep 'firmware-scene cells=' "$OUT/host.txt" | pairs >"$OUT/host.hashes"
 grep 'firmware-scene-two-level cells=' "$OUT/host.txt" | pairs >"$OUT/host-two-level.hashes"
+# The scene in contact (reference size): firmware-scene-ground,
+# -ground-probe and -ground-probe-friction lines.
+for set in "${CONTACT_SETS[@]}"; do
+  grep "firmware-scene-$set cells=" "$OUT/host.txt" | pairs >"$OUT/host-$set.hashes"
+  [ -s "$OUT/host-$set.hashes" ] || { bad "host test printed no hash for the scene in contact ($set)"; finish; }
+done
 cat "$OUT/host.hashes" "$OUT/host-two-level.hashes"
 mapfile -t SIZES < <(cut -d' ' -f1 "$OUT/host.hashes")
 [ "${#SIZES[@]}" -ge 2 ] || { bad "host test printed no sizes"; finish; }
@@ -217,6 +230,24 @@ for cells in "${SIZES[@]}"; do
   FW_HASHES="$OUT/host-two-level.hashes" run_firmware "$cells" two-level --features two-level
 done
 
+step "firmware in contact (features ground, probe, probe + friction) ($REFERENCE): the host's hashes, contacts made"
+for i in "${!CONTACT_FEATURES[@]}"; do
+  set="${CONTACT_SETS[$i]}"
+  FW_HASHES="$OUT/host-$set.hashes" run_firmware "$REFERENCE" "$set" --features "${CONTACT_FEATURES[$i]}"
+  line="$(grep -m1 '^corofem-firmware ' "$OUT/fw-$REFERENCE-$set.txt" 2>/dev/null)" || line=""
+  contacts="$(sed -nE 's/.* contact_steps=([0-9]+).*/\1/p' <<<"$line")"
+  probe="$(sed -nE 's/.* probe_contacts=([0-9]+).*/\1/p' <<<"$line")"
+  if ! grep -q " contact=$set " <<<"$line"; then
+    bad "firmware ($set): not the scene in contact"
+  elif [ "${contacts:-0}" -eq 0 ]; then
+    bad "firmware ($set): no step made contact"
+  elif [[ "$set" == *probe* ]] && [ "${probe:-0}" -eq 0 ]; then
+    bad "firmware ($set): the probe touched nothing"
+  else
+    ok "firmware ($set): contacts in $contacts of the steps, the probe held up to ${probe:-0} nodes"
+  fi
+done
+
 step "panic-freedom: negative control"
 if (cd "$FW" && cargo build --release --features panic-negative-control) >"$OUT/negative.txt" 2>&1; then
   bad "the negative control linked: the panic-freedom check does not catch panics"
@@ -247,8 +278,8 @@ fi
 
 step "cost per scene size (Qr, 500 steps; 5 CG iterations, two-level: 4 and warm start)"
 {
-  printf '%-8s %5s %5s %-9s %10s %9s %6s %7s %6s %7s\n' \
-    cells nodes tets build instr/step instr/tet stack flash ram ram+stk
+  printf '%-8s %5s %5s %-21s %10s %9s %6s %7s %6s %7s %5s %5s\n' \
+    cells nodes tets build instr/step instr/tet stack flash ram ram+stk node cg
   for f in "$OUT"/fw-*.txt; do
     line="$(grep -m1 '^corofem-firmware ' "$f")" || continue
     field() { sed -nE "s/.* $1=([^ ]+).*/\\1/p" <<<"$line"; }
@@ -256,10 +287,10 @@ step "cost per scene size (Qr, 500 steps; 5 CG iterations, two-level: 4 and warm
     variant="${f##*/fw-}"
     variant="${variant#*-}"
     variant="${variant%.txt}"
-    printf '%-8s %5s %5s %-9s %10s %9s %6s %7s %6s %7s\n' \
+    printf '%-8s %5s %5s %-21s %10s %9s %6s %7s %6s %7s %5s %5s\n' \
       "$(field cells)" "$(field nodes)" "$(field tets)" "$variant" "$(field instr_per_step)" \
       "$(field instr_per_tet_step)" "$(field stack_step)" "$flash" "$ram" \
-      "$((ram + $(field stack_peak)))"
+      "$((ram + $(field stack_peak)))" "$(field node_bytes)" "$(field cg_iterations)"
   done | sort -k3,3n -k4,4r
 } | tee "$OUT/summary.txt"
 echo "(build: vsqrt = default (fpu-sqrt, fpu-product: the assembly product with VMLA),"
@@ -267,6 +298,9 @@ echo " rust-prod = vsqrt and the Rust product, libm = software sqrt and the Rust
 echo " cortex-m4 = -C target-cpu=cortex-m4 and _fpu-product-vmul (VMUL+VADD),"
 echo " features = vsqrt with the core's features two-level and nalgebra compiled in, unused;"
 echo " two-level = vsqrt running the two-level preconditioner, 4 CG iterations with warm start;"
+echo " ground, ground-probe, ground-probe-friction = vsqrt with the firmware's features ground,"
+echo "   probe, probe + friction: the beam on the ground, a sphere probe pressing in, friction;"
+echo " node: bytes of RAM per node (Node + NodeWork); cg: CG iterations of the 500 steps;"
 echo " stack: bytes of one step; flash, ram: bytes of the image;"
 echo " ram+stk: with the peak stack, which is the mesh generation's scratch)"
 

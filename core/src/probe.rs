@@ -224,7 +224,17 @@ impl Probe {
     #[inline(always)]
     fn along(&self, c: Vec3, e: Vec3, x: Vec3) -> f32 {
         let l = self.half_length;
-        dot(sub(x, c), e).clamp(-l, l)
+        // `f32::clamp`'s arithmetic without its panic on `min > max`, which
+        // the optimiser cannot rule out (`half_length ≥ 0` is checked when
+        // the probe is made): a firmware's panic-freedom proof links.
+        let mut t = dot(sub(x, c), e);
+        if t < -l {
+            t = -l;
+        }
+        if t > l {
+            t = l;
+        }
+        t
     }
 
     /// The offset of the probe's supporting plane with unit normal `n` at

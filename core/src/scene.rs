@@ -1118,8 +1118,9 @@ fn mark_boundary(
     for (e, tet) in tets.iter().enumerate() {
         // Validated by `build`: `oriented` cannot fail here.
         let t = oriented(e, tet, positions, options).unwrap_or([0; 4]);
-        for [a, b, c] in [[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]] {
-            let (a, b, c) = (t[a], t[b], t[c]);
+        // The faces' nodes by constant indices: no bounds check is left.
+        let [t0, t1, t2, t3] = t;
+        for [a, b, c] in [[t0, t2, t1], [t0, t1, t3], [t0, t3, t2], [t1, t2, t3]] {
             let face = edge(a, b).wrapping_add(edge(b, c)).wrapping_add(edge(c, a));
             for i in [a, b, c] {
                 if let Some(w) = work.get_mut(i as usize) {

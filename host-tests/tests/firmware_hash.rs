@@ -5,7 +5,7 @@
 //! firmware's and the wasm module's, which must be bit-identical.
 
 use corofem::Preconditioner;
-use corofem_test_scenes::firmware as scene;
+use corofem_test_scenes::firmware::{self as scene, ContactSet};
 
 fn run(cells: [u32; 3]) -> scene::Outcome {
     run_with(cells, Preconditioner::Mass)
@@ -66,6 +66,71 @@ fn firmware_scene_with_two_level_golden_hash() {
     // (thumbv7em-none-eabihf) prints the same value.
     let out = run_with(scene::REFERENCE, Preconditioner::TwoLevel);
     assert_eq!(out.hash, 0x9b83_2cbe_988a_e1eb, "{:#018x}", out.hash);
+}
+
+/// The reference scene in contact with the obstacles of `set`; prints
+/// `firmware-scene-<set>` (`firmware-scene-ground`, ...), the lines
+/// `.ci/firmware.sh` compares with the firmware's contact builds.
+fn run_contact(set: ContactSet) -> (scene::Outcome, scene::Contacts) {
+    let cells = scene::REFERENCE;
+    let (mut s, start) = set_up(cells, Preconditioner::Mass);
+    let mut contacts = scene::Contacts::setup(&mut s, cells, set).expect("obstacles");
+    let (n, t) = (s.node_count(), s.element_count());
+    let out = scene::run(&mut s, start, |s, target| contacts.step(s, target)).expect("steps");
+    println!(
+        "firmware-scene-{} cells={}x{}x{} nodes={n} tets={t} hash={:#018x} peak_push={:.4} N contacts={} contact_steps={} cg_iterations={} probe_contacts={} probe_force={:.4} N",
+        set.name(),
+        cells[0],
+        cells[1],
+        cells[2],
+        out.hash,
+        out.peak_push,
+        out.max_contacts,
+        out.contact_steps,
+        out.cg_iterations,
+        contacts.probe_max_contacts,
+        contacts.probe_peak_force,
+    );
+    (out, contacts)
+}
+
+#[test]
+fn firmware_scene_in_contact_is_plausible_and_touches() {
+    for set in ContactSet::ALL {
+        let (out, contacts) = run_contact(set);
+        assert_eq!(
+            scene::check_contacts(&out, &contacts, Preconditioner::Mass),
+            Ok(()),
+            "{set:?}: {out:?} {contacts:?}"
+        );
+    }
+}
+
+#[test]
+fn firmware_scene_in_contact_golden_hashes() {
+    // Recorded on x86_64 (rustc 1.95); the firmware's builds with the
+    // features ground, probe and probe + friction (thumbv7em-none-eabihf)
+    // print the same values.
+    let golden = [
+        (ContactSet::GROUND, 0x4ad0_b5a8_7475_d643),
+        (ContactSet::PROBE, 0x0cc9_a791_fe7d_bdcf),
+        (ContactSet::PROBE_FRICTION, 0x4544_0fe8_874d_a52d),
+    ];
+    for (set, want) in golden {
+        let (out, _) = run_contact(set);
+        assert_eq!(out.hash, want, "{}: {:#018x}", set.name(), out.hash);
+    }
+}
+
+#[test]
+fn firmware_scene_without_obstacles_is_the_plain_scene() {
+    // `Contacts` with no obstacle steps exactly as `step_haptic`.
+    let cells = scene::REFERENCE;
+    let (mut s, start) = set_up(cells, Preconditioner::Mass);
+    let mut contacts = scene::Contacts::setup(&mut s, cells, ContactSet::NONE).expect("none");
+    let out = scene::run(&mut s, start, |s, target| contacts.step(s, target)).expect("steps");
+    assert_eq!(out, run(cells));
+    assert_eq!(out.contact_steps, 0);
 }
 
 /// The scene of `cells` with `pre`, set up: the scene and the tool's start.

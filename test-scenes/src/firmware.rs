@@ -179,12 +179,19 @@ pub struct Outcome {
     pub steps: u32,
     /// Fewest CG iterations of a step.
     pub min_cg_iterations: u32,
+    /// CG iterations of all the steps.
+    pub cg_iterations: u32,
     /// Most inverted elements at the start of a step.
     pub max_inverted: u32,
     /// Largest upward force on the tool (N): the beam pushing back.
     pub peak_push: f32,
     /// Force on the tool after the last step (N).
     pub final_force: Vec3,
+    /// Most nodes the ground and probes held in one step
+    /// (`StepStats::contacts`).
+    pub max_contacts: u32,
+    /// Steps in which the ground or a probe held a node.
+    pub contact_steps: u32,
 }
 
 /// Runs [`STEPS`] haptic steps from the tool's start: `step(scene, target)`
@@ -203,9 +210,12 @@ pub fn run<S: Storage>(
         let stats = step(scene, tool_target(start, k))?;
         out.steps += 1;
         out.min_cg_iterations = out.min_cg_iterations.min(stats.cg_iterations);
+        out.cg_iterations = out.cg_iterations.saturating_add(stats.cg_iterations);
         out.max_inverted = out.max_inverted.max(stats.inverted);
         out.peak_push = out.peak_push.max(stats.tool_force[2]);
         out.final_force = stats.tool_force;
+        out.max_contacts = out.max_contacts.max(stats.contacts);
+        out.contact_steps += u32::from(stats.contacts > 0);
     }
     out.hash = scene.state_hash();
     Ok(out)
@@ -235,6 +245,259 @@ pub fn check_with(out: &Outcome, pre: Preconditioner) -> Result<(), &'static str
     }
     if !out.final_force.iter().all(|f| f.is_finite()) {
         return Err("non-finite tool force");
+    }
+    Ok(())
+}
+
+/// Which obstacles the scene in contact has (see [`Contacts`]). An
+/// obstacle whose feature of this crate is off is left out.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ContactSet {
+    /// The ground plane `z ≥ 0`, on which the beam rests (feature `ground`).
+    pub ground: bool,
+    /// A sphere probe pressing into the beam from above (feature `probe`).
+    pub probe: bool,
+    /// Coulomb friction ([`FRICTION`]) on the ground and the probe
+    /// (feature `friction`).
+    pub friction: bool,
+}
+
+impl ContactSet {
+    /// No obstacle: the scene of [`setup`] and [`run`].
+    pub const NONE: Self = Self {
+        ground: false,
+        probe: false,
+        friction: false,
+    };
+    /// The beam on the ground.
+    pub const GROUND: Self = Self {
+        ground: true,
+        ..Self::NONE
+    };
+    /// The beam on the ground, the probe pressing into it.
+    pub const PROBE: Self = Self {
+        probe: true,
+        ..Self::GROUND
+    };
+    /// The same with friction on the ground and the probe.
+    pub const PROBE_FRICTION: Self = Self {
+        friction: true,
+        ..Self::PROBE
+    };
+    /// The sets the host computes and the firmware's features build.
+    pub const ALL: [Self; 3] = [Self::GROUND, Self::PROBE, Self::PROBE_FRICTION];
+    /// What this crate's features compile in (what the firmware runs).
+    pub const COMPILED: Self = Self {
+        ground: cfg!(feature = "ground"),
+        probe: cfg!(feature = "probe"),
+        friction: cfg!(feature = "friction"),
+    };
+
+    /// Whether any obstacle is there.
+    #[must_use]
+    pub const fn any(&self) -> bool {
+        self.ground || self.probe
+    }
+
+    /// A short name: `none`, `ground`, `ground-probe`,
+    /// `ground-probe-friction`, ... (the hash lines' label).
+    #[must_use]
+    pub const fn name(&self) -> &'static str {
+        match (self.ground, self.probe, self.friction) {
+            (false, false, false) => "none",
+            (true, false, false) => "ground",
+            (true, true, false) => "ground-probe",
+            (true, true, true) => "ground-probe-friction",
+            (true, false, true) => "ground-friction",
+            (false, true, false) => "probe",
+            (false, true, true) => "probe-friction",
+            (false, false, true) => "friction",
+        }
+    }
+}
+
+/// Height of the ground plane (m): the beam's bottom face `z = 0` lies on
+/// it.
+pub const GROUND_Z: f32 = 0.0;
+/// Radius of the sphere probe (m): large enough that, pressed in, it holds
+/// several nodes of the 0.1 m cells.
+pub const PROBE_RADIUS: f32 = 0.3;
+/// Gap between the probe and the beam's top face at the start (m).
+pub const PROBE_GAP: f32 = 0.01;
+/// How far the probe moves down at its deepest, half way (m): 1 cm into the
+/// beam's top face.
+pub const PROBE_DEPTH: f32 = 0.03;
+/// The static and kinetic friction coefficients of the ground and the probe.
+pub const FRICTION: [f32; 2] = [0.6, 0.4];
+
+/// The obstacles of the scene in contact and the probe's state. The beam
+/// of [`setup`] rests on the ground `z ≥ 0` (its bottom face lies on it),
+/// the tool pokes its far end down into it, and a sphere probe of
+/// [`PROBE_RADIUS`] over the middle of the beam's top face moves down by
+/// [`PROBE_DEPTH`] (1 cm into the beam) and back up on the tool's profile
+/// ([`probe_position`]), squeezing the beam against the ground.
+#[derive(Clone, Copy, Debug)]
+pub struct Contacts {
+    set: ContactSet,
+    /// Steps taken by [`Contacts::step`].
+    steps: u32,
+    #[cfg(feature = "probe")]
+    probe: [corofem::Probe; 1],
+    #[cfg(feature = "probe")]
+    probe_start: Vec3,
+    /// Largest upward force of the body on the probe (N).
+    pub probe_peak_force: f32,
+    /// Most nodes the probe held in one step.
+    pub probe_max_contacts: u32,
+}
+
+impl Contacts {
+    /// Sets the obstacles of `set` up in the scene of [`setup`] for the
+    /// beam of `cells`: the ground and its friction; the probe, outside the
+    /// body.
+    pub fn setup<S: Storage>(
+        scene: &mut Scene<S>,
+        cells: [u32; 3],
+        set: ContactSet,
+    ) -> Result<Self, Error> {
+        let set = ContactSet {
+            ground: set.ground && ContactSet::COMPILED.ground,
+            probe: set.probe && ContactSet::COMPILED.probe,
+            friction: set.friction && ContactSet::COMPILED.friction,
+        };
+        #[cfg(feature = "ground")]
+        if set.ground {
+            scene.set_ground(Some(corofem::Plane {
+                normal: [0.0, 0.0, 1.0],
+                offset: GROUND_Z,
+            }))?;
+            #[cfg(feature = "friction")]
+            if set.friction {
+                scene.set_ground_friction(friction()?);
+            }
+        }
+        #[cfg(not(feature = "ground"))]
+        let _ = scene;
+        let size = mesh(cells).size;
+        let probe_start = [
+            0.5 * size[0],
+            0.5 * size[1],
+            size[2] + PROBE_RADIUS + PROBE_GAP,
+        ];
+        #[cfg(not(feature = "probe"))]
+        let _ = probe_start;
+        Ok(Self {
+            set,
+            steps: 0,
+            #[cfg(feature = "probe")]
+            probe: [probe(probe_start, set)?],
+            #[cfg(feature = "probe")]
+            probe_start,
+            probe_peak_force: 0.0,
+            probe_max_contacts: 0,
+        })
+    }
+
+    /// The obstacles in the scene.
+    #[must_use]
+    pub fn set(&self) -> ContactSet {
+        self.set
+    }
+
+    /// One haptic step with the obstacles: the tool's target to `target`,
+    /// the probe to its pose of the next step ([`probe_position`]), then
+    /// `Scene::step_with_probes` (with a probe) or `Scene::step_haptic`.
+    pub fn step<S: Storage>(
+        &mut self,
+        scene: &mut Scene<S>,
+        target: Vec3,
+    ) -> Result<StepStats, StepError> {
+        let k = self.steps.saturating_add(1);
+        let stats = self.step_at(scene, k, target)?;
+        self.steps = k;
+        Ok(stats)
+    }
+
+    /// [`Contacts::step`] with the probe at its pose of step `k` (not
+    /// counted as a step of the run).
+    pub fn step_at<S: Storage>(
+        &mut self,
+        scene: &mut Scene<S>,
+        k: u32,
+        target: Vec3,
+    ) -> Result<StepStats, StepError> {
+        #[cfg(feature = "probe")]
+        if self.set.probe {
+            let [probe] = &mut self.probe;
+            probe
+                .move_to(probe_position(self.probe_start, k), [0.0, 0.0, 1.0])
+                .map_err(|_| StepError::NonFiniteInput)?;
+            scene
+                .set_tool_target(target)
+                .map_err(|_| StepError::NonFiniteInput)?;
+            let stats = scene.step_with_probes(&mut self.probe)?;
+            let [probe] = &self.probe;
+            self.probe_peak_force = self.probe_peak_force.max(probe.force()[2]);
+            self.probe_max_contacts = self.probe_max_contacts.max(probe.contacts());
+            return Ok(stats);
+        }
+        let _ = k;
+        scene.step_haptic(target)
+    }
+}
+
+/// The friction of the ground and the probe ([`FRICTION`]).
+#[cfg(feature = "friction")]
+pub fn friction() -> Result<corofem::Friction, Error> {
+    corofem::Friction::new(FRICTION[0], FRICTION[1])
+}
+
+/// The sphere probe at `centre`, with friction if `set` has it.
+#[cfg(feature = "probe")]
+fn probe(centre: Vec3, set: ContactSet) -> Result<corofem::Probe, Error> {
+    let p = corofem::Probe::sphere(PROBE_RADIUS, centre)?;
+    #[cfg(feature = "friction")]
+    if set.friction {
+        return Ok(p.with_friction(friction()?));
+    }
+    let _ = set;
+    Ok(p)
+}
+
+/// Where the probe's centre is at the end of step `k`: `start − (0, 0,
+/// PROBE_DEPTH · b(s))`, the tool's profile `b` ([`tool_target`]).
+#[must_use]
+pub fn probe_position(start: Vec3, k: u32) -> Vec3 {
+    let s = k as f32 * (1.0 / STEPS as f32);
+    let r = s * (1.0 - s);
+    let b = 16.0 * r * r;
+    [start[0], start[1], start[2] - PROBE_DEPTH * b]
+}
+
+/// [`check_with`] for a run of the scene in contact, and that the
+/// obstacles touched the body: some step held nodes, and the probe (if
+/// there) held some. A step may end its solve before the CG budget here:
+/// with the frictionless probe, a step whose residual reaches exactly zero
+/// stops (`StepStats::cg_residual` 0); [`Outcome::cg_iterations`] counts
+/// what ran.
+pub fn check_contacts(
+    out: &Outcome,
+    contacts: &Contacts,
+    pre: Preconditioner,
+) -> Result<(), &'static str> {
+    let full = Outcome {
+        min_cg_iterations: out.min_cg_iterations.max(settings_with(pre).cg_iterations),
+        ..*out
+    };
+    if out.min_cg_iterations == 0 {
+        return Err("a step ran no CG iteration");
+    }
+    check_with(&full, pre)?;
+    if contacts.set.any() && out.contact_steps == 0 {
+        return Err("no contact");
+    }
+    if contacts.set.probe && !(contacts.probe_max_contacts > 0 && contacts.probe_peak_force > 0.0) {
+        return Err("the probe touched nothing");
     }
     Ok(())
 }

@@ -116,6 +116,17 @@ fn run(scene: &mut FwScene) -> bool {
             return false;
         }
     };
+    // The obstacles of the scene in contact (features ground, probe,
+    // friction): the ground, its friction, the probe.
+    #[cfg(feature = "ground")]
+    let mut contacts = match scene::Contacts::setup(scene, CELLS, scene::ContactSet::COMPILED) {
+        Ok(c) => c,
+        Err(e) => {
+            defmt::error!("obstacles failed: {}", e);
+            Line::new().str("corofem-firmware error=contacts").print();
+            return false;
+        }
+    };
     costs.setup_ticks = u64::from(counter.since(t));
     defmt::info!(
         "corofem: {=u32}x{=u32}x{=u32} cells, {=usize} nodes, {=usize} tetrahedra, {} ",
@@ -138,6 +149,9 @@ fn run(scene: &mut FwScene) -> bool {
         }
         let sp = measure::sp();
         let t = counter.now();
+        #[cfg(feature = "ground")]
+        let stats = contacts.step(scene, target);
+        #[cfg(not(feature = "ground"))]
         let stats = scene.step_haptic(target);
         costs.step_ticks += u64::from(counter.since(t));
         if k == 1 {
@@ -158,7 +172,24 @@ fn run(scene: &mut FwScene) -> bool {
             return false;
         }
     };
+    #[cfg(feature = "ground")]
+    let verdict = scene::check_contacts(&outcome, &contacts, PRECONDITIONER);
+    #[cfg(not(feature = "ground"))]
     let verdict = scene::check_with(&outcome, PRECONDITIONER);
+    // What the obstacles did: their set, the probe's most contacts and
+    // largest force (N).
+    #[cfg(feature = "ground")]
+    let touch = Touch {
+        set: contacts.set().name(),
+        probe_contacts: contacts.probe_max_contacts,
+        probe_force: contacts.probe_peak_force,
+    };
+    #[cfg(not(feature = "ground"))]
+    let touch = Touch {
+        set: scene::ContactSet::NONE.name(),
+        probe_contacts: 0,
+        probe_force: 0.0,
+    };
 
     // The split: the same scene, a few more steps with 1 CG iteration.
     let mut settings = *scene.settings();
@@ -166,6 +197,10 @@ fn run(scene: &mut FwScene) -> bool {
     let split_ok = scene.set_settings(settings).is_ok();
     for _ in 0..SPLIT_STEPS {
         let t = counter.now();
+        // With a probe: held where the run left it (clear of the body).
+        #[cfg(feature = "ground")]
+        let r = contacts.step_at(scene, scene::STEPS, start);
+        #[cfg(not(feature = "ground"))]
         let r = scene.step_haptic(start);
         costs.split_ticks += u64::from(counter.since(t));
         if r.is_err() {
@@ -176,7 +211,7 @@ fn run(scene: &mut FwScene) -> bool {
         .peak_stack
         .max(measure::stack_top() - measure::lowest_touched());
 
-    report(&outcome, &costs, &cal, verdict, split_ok);
+    report(&outcome, &costs, &cal, &touch, verdict, split_ok);
     verdict.is_ok() && split_ok
 }
 
@@ -197,10 +232,21 @@ fn setup(scene: &mut FwScene) -> Result<Vec3, corofem::Error> {
     )
 }
 
+/// What the obstacles of the scene in contact did.
+struct Touch {
+    /// `ContactSet::name`: `none` without the feature `ground`.
+    set: &'static str,
+    /// Most nodes the probe held in one step.
+    probe_contacts: u32,
+    /// Largest upward force of the body on the probe (N).
+    probe_force: f32,
+}
+
 fn report(
     o: &scene::Outcome,
     c: &Costs,
     cal: &measure::Calibration,
+    touch: &Touch,
     verdict: Result<(), &'static str>,
     split_ok: bool,
 ) {
@@ -260,6 +306,18 @@ fn report(
         .u64(o.steps.into())
         .str(" hash=")
         .hex64(o.hash)
+        .str(" contact=")
+        .str(touch.set)
+        .str(" contacts=")
+        .u64(o.max_contacts.into())
+        .str(" contact_steps=")
+        .u64(o.contact_steps.into())
+        .str(" probe_contacts=")
+        .u64(touch.probe_contacts.into())
+        .str(" probe_force=")
+        .newtons(touch.probe_force)
+        .str(" cg_iterations=")
+        .u64(o.cg_iterations.into())
         .str(" sqrt=")
         .str(if cfg!(feature = "fpu-sqrt") {
             "vsqrt"
@@ -292,6 +350,8 @@ fn report(
         .u64(c.peak_stack as u64)
         .str(" static_ram=")
         .u64(measure::static_ram() as u64)
+        .str(" node_bytes=")
+        .u64((size_of::<corofem::Node>() + size_of::<corofem::NodeWork>()) as u64)
         .str(" peak_push=")
         .newtons(o.peak_push)
         .str(" result=")
