@@ -185,11 +185,7 @@ fn run(scene: &mut FwScene) -> bool {
         probe_force: contacts.probe_peak_force,
     };
     #[cfg(not(feature = "ground"))]
-    let touch = Touch {
-        set: scene::ContactSet::NONE.name(),
-        probe_contacts: 0,
-        probe_force: 0.0,
-    };
+    let touch = Touch;
 
     // The split: the same scene, a few more steps with 1 CG iteration.
     let mut settings = *scene.settings();
@@ -232,7 +228,11 @@ fn setup(scene: &mut FwScene) -> Result<Vec3, corofem::Error> {
     )
 }
 
+/// What the obstacles of the scene in contact did (nothing without them).
+#[cfg(not(feature = "ground"))]
+struct Touch;
 /// What the obstacles of the scene in contact did.
+#[cfg(feature = "ground")]
 struct Touch {
     /// `ContactSet::name`: `none` without the feature `ground`.
     set: &'static str,
@@ -246,7 +246,7 @@ fn report(
     o: &scene::Outcome,
     c: &Costs,
     cal: &measure::Calibration,
-    touch: &Touch,
+    #[cfg_attr(not(feature = "ground"), allow(unused_variables))] touch: &Touch,
     verdict: Result<(), &'static str>,
     split_ok: bool,
 ) {
@@ -305,8 +305,10 @@ fn report(
         .str(" steps=")
         .u64(o.steps.into())
         .str(" hash=")
-        .hex64(o.hash)
-        .str(" contact=")
+        .hex64(o.hash);
+    // The scene in contact: its obstacles and what they touched.
+    #[cfg(feature = "ground")]
+    l.str(" contact=")
         .str(touch.set)
         .str(" contacts=")
         .u64(o.max_contacts.into())
@@ -315,8 +317,8 @@ fn report(
         .str(" probe_contacts=")
         .u64(touch.probe_contacts.into())
         .str(" probe_force=")
-        .newtons(touch.probe_force)
-        .str(" cg_iterations=")
+        .newtons(touch.probe_force);
+    l.str(" cg_iterations=")
         .u64(o.cg_iterations.into())
         .str(" sqrt=")
         .str(if cfg!(feature = "fpu-sqrt") {
