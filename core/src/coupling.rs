@@ -1,50 +1,4 @@
-//! Haptic virtual coupling: a spring and a damper between a haptic device
-//! and a probe, so that a device of modest damping renders a stiff body
-//! without buzzing.
-//!
-//! A device that moved the probe itself (`Probe::move_to` its position)
-//! and rendered the probe's force would feel the body's stiffness through
-//! a loop sampled at 1 kHz. On a stiff body that loop is not passive: the
-//! force is held over a period while the device moves, and the device
-//! gains energy from each contact until it buzzes. The coupling (Colgate,
-//! Stanley and Brown, "Issues in the haptic display of tool use", IROS
-//! 1995) puts a spring of stiffness `k` and a damper `b` between the
-//! device and a *proxy*: the probe, given a mass `m`. The device feels the
-//! spring, never more than `k`; the proxy feels the spring and the body.
-//!
-//! Each period, [`Coupling::drive`] advances the proxy by one step of
-//! length `h` (the scene's `dt`), implicit in the spring and the damper,
-//! with the force the body exerted on the probe in the last step, `f`:
-//!
-//! ```text
-//! (m + h b + h² k) v' = m v + h (k (x_d − x) + b v_d + f)
-//! x' = x + h v'
-//! device force = k (x' − x_d) + b (v' − v_d)
-//! ```
-//!
-//! with `x_d`, `v_d` the device's position and velocity and `x`, `v` the
-//! proxy's. It moves the probe to `x'` for the next step and returns the
-//! force to render on the device. The spring and damper are implicit, so
-//! they are stable at any `k` and `b`.
-//!
-//! The body's force is the last step's, known only after the proxy has
-//! moved: against a stiff body a proxy driven by it alone overshoots, the
-//! body lets go, and the two chatter at half the loop's rate. Two things
-//! keep the proxy quiet:
-//! - `f` is the body's force averaged over the last two steps, which
-//!   removes that half-rate mode;
-//! - the body's stiffness at the probe, `k_b`, is estimated from the
-//!   force's change along the proxy's motion between periods in contact,
-//!   and the proxy's step is implicit in it too (`h² k_b` joins
-//!   `m + h b + h² k`), so the proxy moves towards where the spring and
-//!   the body balance instead of past it.
-//!
-//! The README's "Haptic coupling" section gives how to choose `k`, `b`
-//! and `m` for a device, and what was measured.
-//!
-//! Only positions are coupled: a capsule's axis is the caller's to set
-//! ([`Probe::move_to`] with the probe's new position), and no torque is
-//! rendered.
+//! The haptic virtual coupling ([`Coupling`]).
 
 use crate::error::{Error, Parameter};
 use crate::math::{add, dot, is_finite3, scale, sub, Vec3};
@@ -54,8 +8,53 @@ use crate::Probe;
 /// constant of 100 periods (0.1 s at 1 kHz).
 const FORGET: f32 = 0.99;
 
-/// A spring-damper between a haptic device and a probe proxy with mass
-/// (see the [module](self) for the equations).
+/// Haptic virtual coupling: a spring and a damper between a haptic device
+/// and a probe, so that a device of modest damping renders a stiff body
+/// without buzzing.
+///
+/// A device that moved the probe itself (`Probe::move_to` its position)
+/// and rendered the probe's force would feel the body's stiffness through
+/// a loop sampled at 1 kHz. On a stiff body that loop is not passive: the
+/// force is held over a period while the device moves, and the device
+/// gains energy from each contact until it buzzes. The coupling (Colgate,
+/// Stanley and Brown, "Issues in the haptic display of tool use", IROS
+/// 1995) puts a spring of stiffness `k` and a damper `b` between the
+/// device and a *proxy*: the probe, given a mass `m`. The device feels the
+/// spring, never more than `k`; the proxy feels the spring and the body.
+///
+/// Each period, [`Coupling::drive`] advances the proxy by one step of
+/// length `h` (the scene's `dt`), implicit in the spring and the damper,
+/// with the force the body exerted on the probe in the last step, `f`:
+///
+/// ```text
+/// (m + h b + h² k) v' = m v + h (k (x_d − x) + b v_d + f)
+/// x' = x + h v'
+/// device force = k (x' − x_d) + b (v' − v_d)
+/// ```
+///
+/// with `x_d`, `v_d` the device's position and velocity and `x`, `v` the
+/// proxy's. It moves the probe to `x'` for the next step and returns the
+/// force to render on the device. The spring and damper are implicit, so
+/// they are stable at any `k` and `b`.
+///
+/// The body's force is the last step's, known only after the proxy has
+/// moved: against a stiff body a proxy driven by it alone overshoots, the
+/// body lets go, and the two chatter at half the loop's rate. Two things
+/// keep the proxy quiet:
+/// - `f` is the body's force averaged over the last two steps, which
+///   removes that half-rate mode;
+/// - the body's stiffness at the probe, `k_b`, is estimated from the
+///   force's change along the proxy's motion between periods in contact,
+///   and the proxy's step is implicit in it too (`h² k_b` joins
+///   `m + h b + h² k`), so the proxy moves towards where the spring and
+///   the body balance instead of past it.
+///
+/// The README's "Haptic coupling" section gives how to choose `k`, `b`
+/// and `m` for a device, and what was measured.
+///
+/// Only positions are coupled: a capsule's axis is the caller's to set
+/// ([`Probe::move_to`] with the probe's new position), and no torque is
+/// rendered.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Coupling {
