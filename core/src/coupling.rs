@@ -24,10 +24,11 @@ const FORGET: f32 = 0.99;
 ///
 /// Each period, [`Coupling::drive`] advances the proxy by one step of
 /// length `h` (the scene's `dt`), implicit in the spring and the damper,
-/// with the force the body exerted on the probe in the last step, `f`:
+/// under the body's force on the probe `f̄` and with its stiffness there
+/// `k_b` (both below):
 ///
 /// ```text
-/// (m + h b + h² k) v' = m v + h (k (x_d − x) + b v_d + f)
+/// (m + h b + h² (k + k_b)) v' = m v + h (k (x_d − x) + b v_d + f̄)
 /// x' = x + h v'
 /// device force = k (x' − x_d) + b (v' − v_d)
 /// ```
@@ -41,7 +42,7 @@ const FORGET: f32 = 0.99;
 /// moved: against a stiff body a proxy driven by it alone overshoots, the
 /// body lets go, and the two chatter at half the loop's rate. Two things
 /// keep the proxy quiet:
-/// - `f` is the body's force averaged over the last two steps, which
+/// - `f̄` is the body's force averaged over the last two steps, which
 ///   removes that half-rate mode;
 /// - the body's stiffness at the probe, `k_b`, is estimated from the
 ///   force's change along the proxy's motion between periods in contact,
@@ -71,7 +72,8 @@ pub struct Coupling {
     /// The body's force on the probe in the step before the last (N).
     previous_force: Vec3,
     /// The proxy's position and the body's force on it at the start of the
-    /// last period, if the probe then held nodes (else the force is zero).
+    /// last period in which the probe held nodes (the force zero before
+    /// the first).
     last_position: Vec3,
     last_force: Vec3,
 }
@@ -180,7 +182,6 @@ impl Coupling {
         }
         let (k, b, h) = (self.stiffness, self.damping, dt);
         let x = probe.position();
-        // m v + h (k (x_d − x) + b v_d + f)
         let touching = probe.contacts() > 0;
         let body = if touching {
             self.estimate(x, probe.force())
@@ -239,8 +240,8 @@ impl Coupling {
         }
     }
 
-    /// The body's stiffness at the probe (N/m) that the last period used:
-    /// zero out of contact.
+    /// The body's stiffness at the probe (N/m) that the last period used;
+    /// out of contact it decays by 1 % per period.
     #[must_use]
     pub fn body_stiffness(&self) -> f32 {
         self.body_stiffness

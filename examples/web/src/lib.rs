@@ -80,6 +80,17 @@ fn with_app<R>(default: R, f: impl FnOnce(&mut App) -> R) -> R {
     with(|s| s.app.as_mut().map_or(default, f))
 }
 
+/// 0 for `Ok`; for an error, 1 with its text kept for `cf_message`.
+fn outcome<E: core::fmt::Display>(s: &mut State, r: Result<(), E>) -> i32 {
+    match r {
+        Ok(()) => 0,
+        Err(e) => {
+            s.message = e.to_string();
+            1
+        }
+    }
+}
+
 /// Pointer as the page sees it: an offset into the module's memory.
 fn addr<T>(p: *const T) -> u32 {
     p as usize as u32
@@ -595,13 +606,8 @@ pub extern "C" fn cf_probe_set(x: f32, y: f32, z: f32, r: f32, dx: f32, dy: f32,
             s.message = "no body to press on".to_owned();
             return 1;
         };
-        match app.set_probe([x, y, z], r, [dx, dy, dz]) {
-            Ok(()) => 0,
-            Err(e) => {
-                s.message = e.to_string();
-                1
-            }
-        }
+        let r = app.set_probe([x, y, z], r, [dx, dy, dz]);
+        outcome(s, r)
     })
 }
 
@@ -612,17 +618,11 @@ pub extern "C" fn cf_probe_set(x: f32, y: f32, z: f32, r: f32, dx: f32, dy: f32,
 #[no_mangle]
 pub extern "C" fn cf_probe_friction(mu: f32) -> i32 {
     with(|s| {
-        let r = match s.app.as_mut() {
-            Some(app) => app.set_probe_friction(mu),
-            None => Ok(()),
-        };
-        match r {
-            Ok(()) => 0,
-            Err(e) => {
-                s.message = e.to_string();
-                1
-            }
-        }
+        let r = s
+            .app
+            .as_mut()
+            .map_or(Ok(()), |app| app.set_probe_friction(mu));
+        outcome(s, r)
     })
 }
 
@@ -633,17 +633,11 @@ pub extern "C" fn cf_probe_friction(mu: f32) -> i32 {
 #[no_mangle]
 pub extern "C" fn cf_ground_friction(mu: f32) -> i32 {
     with(|s| {
-        let r = match s.app.as_mut() {
-            Some(app) => app.set_ground_friction(mu),
-            None => Ok(()),
-        };
-        match r {
-            Ok(()) => 0,
-            Err(e) => {
-                s.message = e.to_string();
-                1
-            }
-        }
+        let r = s
+            .app
+            .as_mut()
+            .map_or(Ok(()), |app| app.set_ground_friction(mu));
+        outcome(s, r)
     })
 }
 
