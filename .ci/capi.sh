@@ -37,6 +37,8 @@ cargo fmt --manifest-path $MANIFEST -- --check
 cargo clippy --manifest-path $MANIFEST --all-targets -- -D warnings
 # The firmware's feature set on the host: no surfaces, no ground.
 cargo clippy --manifest-path $MANIFEST --all-targets --no-default-features --features qr -- -D warnings
+# The coupling alone (it brings the probes, without friction or surfaces).
+cargo clippy --manifest-path $MANIFEST --all-targets --no-default-features --features qr,coupling -- -D warnings
 pass "fmt and clippy"
 
 step "staticlib and the C example on the host"
@@ -58,8 +60,8 @@ pass "C example on the host (the tool, and the probe with and without friction)"
 
 step "Rust API, C functions from Rust, and the C program: same hashes"
 COROFEM_C_EXAMPLE="$OUT/haptic_loop" cargo test --manifest-path $MANIFEST
-# Without the features `surface`, `probe` and `friction` their functions
-# are there and say so.
+# Without the features `surface`, `probe`, `friction` and `coupling` their
+# functions are there and say so.
 cargo test --manifest-path $MANIFEST --no-default-features --features qr --test api -- _unsupported_without_the_feature
 pass "Rust tests, hashes from Rust, from the C functions and from the C program agree"
 
