@@ -51,12 +51,16 @@ cc -std=c11 -O2 -Wall -Wextra -pedantic -Werror -ffp-contract=off -Icapi/include
 "$OUT/haptic_loop" box 2000 | tee "$OUT/box.txt"
 # The probe scene: a sphere pressed into the body, slid and lifted.
 "$OUT/haptic_loop" box 2000 --probe --friction
+# The same path as a haptic device's, the probe its proxy through the
+# virtual coupling.
+"$OUT/haptic_loop" box 2000 --probe --coupling
 if [ -f "$LIVER" ]; then
     "$OUT/haptic_loop" "$LIVER" 2000 --rt
     "$OUT/haptic_loop" "$FINE_LIVER" 2000 --probe
     "$OUT/haptic_loop" "$FINE_LIVER" 3000 --probe --friction --rt
+    "$OUT/haptic_loop" "$FINE_LIVER" 2000 --probe --coupling --rt
 fi
-pass "C example on the host (the tool, and the probe with and without friction)"
+pass "C example on the host (the tool, the probe with and without friction, the coupling)"
 
 step "Rust API, C functions from Rust, and the C program: same hashes"
 COROFEM_C_EXAMPLE="$OUT/haptic_loop" cargo test --manifest-path $MANIFEST
