@@ -135,6 +135,8 @@ if [ -f "$LIVER" ]; then
     # Pinned with SCHED_FIFO where allowed (reported, not required).
     "$RT" --scene liver --steps 3000 --cpu 1 --fifo 80
     "$RT" --scene liver --steps 3000 --cpu 1 --fifo 80 --load
+    # The probe scene of haptic_loop.c --probe, one cycle with friction.
+    "$RT" --scene liver-ftw --probe --friction --steps 1200 --cpu 1 --fifo 80
 fi
 "$RT" --scene box10k --steps 300
 pass "real-time loop ran"
