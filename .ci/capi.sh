@@ -37,6 +37,8 @@ cargo fmt --manifest-path $MANIFEST -- --check
 cargo clippy --manifest-path $MANIFEST --all-targets -- -D warnings
 # The firmware's feature set on the host: no surfaces, no ground.
 cargo clippy --manifest-path $MANIFEST --all-targets --no-default-features --features qr -- -D warnings
+# The coupling alone (it brings the probes, without friction or surfaces).
+cargo clippy --manifest-path $MANIFEST --all-targets --no-default-features --features qr,coupling -- -D warnings
 pass "fmt and clippy"
 
 step "staticlib and the C example on the host"
@@ -49,17 +51,21 @@ cc -std=c11 -O2 -Wall -Wextra -pedantic -Werror -ffp-contract=off -Icapi/include
 "$OUT/haptic_loop" box 2000 | tee "$OUT/box.txt"
 # The probe scene: a sphere pressed into the body, slid and lifted.
 "$OUT/haptic_loop" box 2000 --probe --friction
+# The same path as a haptic device's, the probe its proxy through the
+# virtual coupling.
+"$OUT/haptic_loop" box 2000 --probe --coupling
 if [ -f "$LIVER" ]; then
     "$OUT/haptic_loop" "$LIVER" 2000 --rt
     "$OUT/haptic_loop" "$FINE_LIVER" 2000 --probe
     "$OUT/haptic_loop" "$FINE_LIVER" 3000 --probe --friction --rt
+    "$OUT/haptic_loop" "$FINE_LIVER" 2000 --probe --coupling --rt
 fi
-pass "C example on the host (the tool, and the probe with and without friction)"
+pass "C example on the host (the tool, the probe with and without friction, the coupling)"
 
 step "Rust API, C functions from Rust, and the C program: same hashes"
 COROFEM_C_EXAMPLE="$OUT/haptic_loop" cargo test --manifest-path $MANIFEST
-# Without the features `surface`, `probe` and `friction` their functions
-# are there and say so.
+# Without the features `surface`, `probe`, `friction` and `coupling` their
+# functions are there and say so.
 cargo test --manifest-path $MANIFEST --no-default-features --features qr --test api -- _unsupported_without_the_feature
 pass "Rust tests, hashes from Rust, from the C functions and from the C program agree"
 
@@ -129,6 +135,8 @@ if [ -f "$LIVER" ]; then
     # Pinned with SCHED_FIFO where allowed (reported, not required).
     "$RT" --scene liver --steps 3000 --cpu 1 --fifo 80
     "$RT" --scene liver --steps 3000 --cpu 1 --fifo 80 --load
+    # The probe scene of haptic_loop.c --probe, one cycle with friction.
+    "$RT" --scene liver-ftw --probe --friction --steps 1200 --cpu 1 --fifo 80
 fi
 "$RT" --scene box10k --steps 300
 pass "real-time loop ran"

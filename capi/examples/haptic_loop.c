@@ -1,6 +1,6 @@
 /* A haptic loop through the corofem C API.
  *
- *   haptic_loop [MESH.tetmesh|box] [STEPS] [--probe [--friction]] [--rt]
+ *   haptic_loop [MESH.tetmesh|box] [STEPS] [--probe [--friction] [--coupling]] [--rt]
  *   haptic_loop --help
  *
  * Builds a scene in a static buffer (no allocation anywhere), fixes part of
@@ -37,6 +37,13 @@
  * --friction gives the probe Coulomb friction (static 0.6, kinetic 0.4), so
  * that the slide drags the surface along. A library built without the
  * feature `probe` (the Cortex-M4F's) says so and stops.
+ * --coupling makes the path the haptic device's and the probe its proxy,
+ * joined by a virtual coupling (spring 1000 N/m, damper 2 N s/m, proxy of
+ * 10 g: the README's guide for a device of 1 N s/m at 1 kHz): each period
+ * drives the coupling from the device's position and its velocity (the
+ * difference of its positions over the period, as a device measures it),
+ * steps, and renders the coupling's force instead of the probe's. The
+ * program also prints the rendered force and its largest magnitude.
  *
  * --rt paces the loop at 1 kHz with absolute deadlines (POSIX hosts:
  * mlockall, buffers touched first, on Linux 1 ns timer slack, the last
@@ -58,6 +65,7 @@
 #define _POSIX_C_SOURCE 200809L /* clock_gettime, clock_nanosleep */
 #endif
 #include <inttypes.h>
+#include <math.h> /* sqrt */
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -286,7 +294,7 @@ static int bind_skin(corofem_scene *scene) {
 }
 
 static const char USAGE[] =
-    "usage: haptic_loop [MESH.tetmesh|box] [STEPS] [--probe [--friction]] [--rt]\n"
+    "usage: haptic_loop [MESH.tetmesh|box] [STEPS] [--probe [--friction] [--coupling]] [--rt]\n"
     "\n"
     "Runs the haptic loop of the corofem C API example for STEPS steps of 1 ms\n"
     "(default 2000) on the built-in 10 x 2 x 2 cm beam (box, the default) or on\n"
@@ -296,6 +304,9 @@ static const char USAGE[] =
     "              it, instead of pulling with the tool; print the probe's force\n"
     "  --friction  with --probe: Coulomb friction between probe and body\n"
     "              (static 0.6, kinetic 0.4)\n"
+    "  --coupling  with --probe: the path is the device's, the probe its proxy\n"
+    "              through a virtual coupling (1000 N/m, 2 N s/m, 10 g); render\n"
+    "              the coupling's force\n"
     "  --rt        pace the loop at 1 kHz and report deadline misses\n"
     "  -h, --help  print this help\n";
 
@@ -303,7 +314,7 @@ int main(int argc, char **argv) {
     /* Options first, anywhere: anything else that starts with '-' is not a
      * mesh file; the others are the mesh and the step count, in order. */
     const char *mesh = "box", *steps_arg = NULL;
-    int rt = 0, with_probe = 0, with_friction = 0, positional = 0;
+    int rt = 0, with_probe = 0, with_friction = 0, with_coupling = 0, positional = 0;
     for (int i = 1; i < argc; i++) {
         if (strcmp(argv[i], "--help") == 0 || strcmp(argv[i], "-h") == 0) {
             fputs(USAGE, stdout);
@@ -314,6 +325,8 @@ int main(int argc, char **argv) {
             with_probe = 1;
         } else if (strcmp(argv[i], "--friction") == 0) {
             with_friction = 1;
+        } else if (strcmp(argv[i], "--coupling") == 0) {
+            with_coupling = 1;
         } else if (argv[i][0] == '-') {
             printf("error: unknown option %s\n%s", argv[i], USAGE);
             return 2;
@@ -326,8 +339,8 @@ int main(int argc, char **argv) {
             return 2;
         }
     }
-    if (with_friction && !with_probe) {
-        printf("error: --friction needs --probe\n%s", USAGE);
+    if ((with_friction || with_coupling) && !with_probe) {
+        printf("error: --friction and --coupling need --probe\n%s", USAGE);
         return 2;
     }
     uint32_t steps = steps_arg ? (uint32_t)strtoul(steps_arg, NULL, 10) : 2000;
@@ -402,9 +415,10 @@ int main(int argc, char **argv) {
     corofem_stats stats;
     CHECK(corofem_tool_target(scene, start));
     /* %lu, not %zu: newlib's printf does not know %zu. */
-    printf("scene %s%s: %lu nodes, %lu tets, %lu bytes\n", is_box ? "box" : mesh,
+    printf("scene %s%s%s: %lu nodes, %lu tets, %lu bytes\n", is_box ? "box" : mesh,
            with_probe ? (with_friction ? " with a probe and friction" : " with a probe") : "",
-           (unsigned long)n, (unsigned long)t, (unsigned long)bytes);
+           with_coupling ? ", coupled" : "", (unsigned long)n, (unsigned long)t,
+           (unsigned long)bytes);
 
     /* The probe scene: one sphere in its own buffer, started above the
      * pressed node (the box's node 84, or the liver's topmost), moved along
@@ -413,6 +427,11 @@ int main(int argc, char **argv) {
     int up = is_box ? 2 : 1; /* against gravity */
     float c0[3] = {0.0f, 0.0f, 0.0f}, b[3] = {0.0f, 0.0f, 0.0f}, peak_push = 0.0f;
     uint32_t pressed = 84, peak_step = 0, contacts = 0;
+    /* The coupling (--coupling): a plain struct, no buffer; the device's
+     * last position, and the largest rendered force's square. */
+    corofem_coupling coupling;
+    float device[3] = {0.0f, 0.0f, 0.0f}, render[3] = {0.0f, 0.0f, 0.0f}, peak_render2 = 0.0f;
+    uint32_t peak_render_step = 0;
     if (with_probe) {
         size_t probe_bytes = 0;
         corofem_status st = corofem_probes_bytes(1, &probe_bytes);
@@ -458,6 +477,21 @@ int main(int argc, char **argv) {
         printf("probe: sphere of %.3f m over node %lu, %lu bytes\n", (double)PROBE_RADIUS,
                (unsigned long)pressed, (unsigned long)probe_bytes);
     }
+    if (with_coupling) {
+        /* The README's guide for a device of damping 1 N s/m at 1 kHz: k
+         * half of 2 B / T, a proxy period 2 pi sqrt(m / k) of 20 ms, and a
+         * damping ratio b / (2 sqrt(k m)) of 0.32. */
+        const float k = 1000.0f, damper = 2.0f, m = 0.01f;
+        corofem_status st = corofem_coupling_init(&coupling, k, damper, m);
+        if (st == COROFEM_STATUS_UNSUPPORTED) {
+            printf("coupling: not in this library\n");
+            return 0;
+        }
+        CHECK(st);
+        device[0] = c0[0], device[1] = c0[1], device[2] = c0[2];
+        printf("coupling: k %.0f N/m, b %.1f N s/m, proxy %.3f kg, %lu bytes\n", (double)k,
+               (double)damper, (double)m, (unsigned long)sizeof coupling);
+    }
     if (is_box && !with_probe) {
         int r = bind_skin(scene);
         if (r == 1) return 1;
@@ -498,7 +532,17 @@ int main(int argc, char **argv) {
         }
         int64_t t0 = now_ns();
 #endif
-        if (with_probe) {
+        if (with_coupling) {
+            /* One period of a coupled device loop: the device's position
+             * and velocity in, the proxy driven, a step, the coupling's
+             * force to render out. */
+            float velocity[3];
+            for (int c = 0; c < 3; c++) velocity[c] = (at[c] - device[c]) / settings.dt;
+            CHECK(corofem_coupling_drive(&coupling, probes, 0, at, velocity, settings.dt, render));
+            CHECK(corofem_step_probes(scene, probes, &stats, NULL, NULL));
+            CHECK(corofem_probe_force(probes, 0, force, &contacts));
+            device[0] = at[0], device[1] = at[1], device[2] = at[2];
+        } else if (with_probe) {
             /* One period of a device loop: the device's position in, a
              * step, the force to render out. */
             CHECK(corofem_probe_move_to(probes, 0, at, NULL));
@@ -517,6 +561,10 @@ int main(int argc, char **argv) {
         }
 #endif
         if (with_probe && force[up] > peak_push) peak_push = force[up], peak_step = i + 1;
+        if (with_coupling) {
+            float r2 = render[0] * render[0] + render[1] * render[1] + render[2] * render[2];
+            if (r2 > peak_render2) peak_render2 = r2, peak_render_step = i + 1;
+        }
 
     }
 
@@ -534,6 +582,14 @@ int main(int argc, char **argv) {
         printf("support force %.6f %.6f %.6f N, %" PRIu32 " contacts in all\n",
                (double)stats.support_force[0], (double)stats.support_force[1],
                (double)stats.support_force[2], stats.contacts);
+        if (with_coupling) {
+            float body = 0.0f;
+            CHECK(corofem_coupling_body_stiffness(&coupling, &body));
+            printf("rendered force %.6f %.6f %.6f N; largest %.6f N at step %" PRIu32
+                   "; body stiffness %.1f N/m\n",
+                   (double)render[0], (double)render[1], (double)render[2], sqrt((double)peak_render2),
+                   peak_render_step, (double)body);
+        }
     } else {
         printf("tool force %.6f %.6f %.6f N\n", (double)force[0], (double)force[1], (double)force[2]);
     }

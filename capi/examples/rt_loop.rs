@@ -1,8 +1,8 @@
 //! A 1 kHz haptic loop with its worst case measured.
 //!
 //! ```text
-//! cargo run --release --example rt_loop -- [--scene liver|box10k|FILE.tetmesh]
-//!     [--steps 100000] [--rate 1000] [--cg 10] [--preconditioner NAME]
+//! cargo run --release --example rt_loop -- [--scene liver|liver-ftw|box10k|FILE.tetmesh]
+//!     [--probe [--friction]] [--steps 100000] [--rate 1000] [--cg 10] [--preconditioner NAME]
 //!     [--load] [--cpu N] [--fifo PRIO]
 //!     [--spin-us 50] [--no-slack] [--no-mlock] [--no-prefault] [--ftz] [--still] [--json]
 //! ```
@@ -13,6 +13,16 @@
 //! time* (what the solver costs) and the *wake-up latency* (how late the OS
 //! woke us: what the machine costs). A deadline is missed when a step ends
 //! after the next deadline; the loop then skips the periods it lost.
+//!
+//! `--scene liver` is SOFA's liver, `liver-ftw` the finer fTetWild liver
+//! (`liver_ftw_3k.tetmesh`), both from `../shared/meshes`; a file is read
+//! as one in SOFA's liver units. `--probe` replaces the tool with the probe
+//! scene of `haptic_loop.c --probe` (feature `probe`): a 1 cm sphere
+//! pressing 1 cm into the liver from above over 0.3 s, sliding 15 mm in
+//! 0.5 s, lifting in 0.3 s and returning in 0.1 s, the bottom 3 cm of the
+//! liver fixed, no gravity; `--friction` gives it Coulomb friction (static
+//! 0.6, kinetic 0.4; feature `friction`). Use it on `liver-ftw`: on SOFA's
+//! liver, whose edges are about 2 cm, the sphere slips between the nodes.
 //!
 //! `--cg N` sets the CG iterations (default 10 for the liver, 5 for the
 //! box); `--preconditioner NAME` (`mass`, `block-jacobi`, `two-level`)
@@ -39,10 +49,14 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use corofem_core::VecScene;
-use corofem_core::{BoxMesh, BuildOptions, Material, Preconditioner, Settings};
+use corofem_core::{
+    BoxMesh, BuildOptions, Material, Preconditioner, Settings, StepError, StepStats,
+};
 
 struct Args {
     scene: String,
+    probe: bool,
+    friction: bool,
     steps: usize,
     rate: f64,
     cg: Option<u32>,
@@ -62,6 +76,8 @@ struct Args {
 fn parse_args() -> Result<Args, String> {
     let mut a = Args {
         scene: "liver".into(),
+        probe: false,
+        friction: false,
         steps: 100_000,
         rate: 1000.0,
         cg: None,
@@ -103,6 +119,8 @@ fn parse_args() -> Result<Args, String> {
                     .parse()
                     .map_err(|e| format!("--spin-us: {e}"))?
             }
+            "--probe" => a.probe = true,
+            "--friction" => a.friction = true,
             "--load" => a.load = true,
             "--no-mlock" => a.mlock = false,
             "--no-prefault" => a.prefault = false,
@@ -127,6 +145,9 @@ fn parse_args() -> Result<Args, String> {
     if a.steps == 0 || a.rate.is_nan() || a.rate <= 0.0 {
         return Err("--steps and --rate must be positive".into());
     }
+    if a.friction && !a.probe {
+        return Err("--friction needs --probe".into());
+    }
     Ok(a)
 }
 
@@ -138,9 +159,132 @@ struct Haptic {
     /// Radius (m) of the tool's circle, in the plane of `axes`.
     radius: f32,
     axes: [usize; 2],
+    /// With `--probe`: the probe that replaces the tool.
+    press: Option<Press>,
 }
 
-fn liver(path: &str, cg: u32) -> Result<Haptic, String> {
+/// The probe scene of `haptic_loop.c --probe`: a sphere of 1 cm, pressed
+/// 1 cm below a node from 2 mm above it, slid and lifted.
+#[cfg(feature = "probe")]
+struct Press {
+    probes: [corofem_core::Probe; 1],
+    /// The sphere's centre at the start and at its deepest.
+    start: [f32; 3],
+    deepest: [f32; 3],
+}
+
+/// Without the feature `probe` there is no probe scene.
+#[cfg(not(feature = "probe"))]
+enum Press {}
+
+#[cfg(feature = "probe")]
+impl Press {
+    const RADIUS: f32 = 0.01;
+    const DEPTH: f32 = 0.01;
+
+    /// Turns the liver scene `s` of `nodes` into the probe scene: no
+    /// gravity, no tool, the nodes within 3 cm of the lowest (along +y,
+    /// up) fixed, the sphere over the first node of the largest height.
+    fn on(s: &mut VecScene, nodes: &[[f32; 3]], friction: bool) -> Result<(Self, usize), String> {
+        const UP: usize = 1;
+        let e = |e: corofem_core::Error| e.to_string();
+        s.release();
+        s.unfix_all();
+        let lowest = nodes.iter().map(|x| x[UP]).fold(nodes[0][UP], f32::min);
+        let tray: Vec<u32> = (0..nodes.len() as u32)
+            .filter(|&i| nodes[i as usize][UP] <= lowest + 0.03)
+            .collect();
+        s.fix_nodes(&tray).map_err(e)?;
+        s.set_settings(Settings {
+            gravity: [0.0; 3],
+            ..*s.settings()
+        })
+        .map_err(e)?;
+        let mut top = 0;
+        for (i, x) in nodes.iter().enumerate().skip(1) {
+            if x[UP] > nodes[top][UP] {
+                top = i;
+            }
+        }
+        let (mut start, mut deepest) = (nodes[top], nodes[top]);
+        start[UP] += Self::RADIUS + 0.002;
+        deepest[UP] += Self::RADIUS - Self::DEPTH;
+        let probe = corofem_core::Probe::sphere(Self::RADIUS, start).map_err(e)?;
+        let press = Self {
+            probes: [Self::rough(probe, friction)?],
+            start,
+            deepest,
+        };
+        Ok((press, tray.len()))
+    }
+
+    /// `probe` with Coulomb friction (static 0.6, kinetic 0.4) if asked.
+    #[cfg(feature = "friction")]
+    fn rough(
+        mut probe: corofem_core::Probe,
+        friction: bool,
+    ) -> Result<corofem_core::Probe, String> {
+        if friction {
+            let mu = corofem_core::Friction::new(0.6, 0.4).map_err(|e| e.to_string())?;
+            probe.set_friction(mu);
+        }
+        Ok(probe)
+    }
+
+    #[cfg(not(feature = "friction"))]
+    fn rough(probe: corofem_core::Probe, friction: bool) -> Result<corofem_core::Probe, String> {
+        if friction {
+            return Err("--friction: built without the feature friction".into());
+        }
+        Ok(probe)
+    }
+
+    /// The sphere's centre at the end of step `step` (1-based), as
+    /// `haptic_loop.c`'s `probe_path`: down to the deepest point over
+    /// 300 steps, 15 mm along +x over 500, up over 300, back over 100.
+    fn path(&self, step: u32) -> [f32; 3] {
+        let (c0, b) = (self.start, self.deepest);
+        let slide = 0.015f32;
+        let k = (step - 1) % 1200 + 1;
+        let (s, side) = if k <= 300 {
+            (k as f32 / 300.0, 0.0)
+        } else if k <= 800 {
+            (1.0, slide * ((k - 300) as f32 / 500.0))
+        } else if k <= 1100 {
+            ((1100 - k) as f32 / 300.0, slide)
+        } else {
+            (0.0, slide * ((1200 - k) as f32 / 100.0))
+        };
+        let mut c = [0.0f32; 3];
+        for i in 0..3 {
+            c[i] = c0[i] + (b[i] - c0[i]) * s;
+        }
+        c[0] += side;
+        c
+    }
+
+    /// One period: the sphere moved along the path, a step, and the force
+    /// the body exerted on it (what the device renders).
+    fn step(&mut self, s: &mut VecScene, step: u32) -> Result<(StepStats, [f32; 3]), StepError> {
+        // The pose is finite and the axis the sphere's own: never refused.
+        let _ = self.probes[0].move_to(self.path(step), [0.0, 0.0, 1.0]);
+        let st = s.step_with_probes(&mut self.probes)?;
+        Ok((st, self.probes[0].force()))
+    }
+}
+
+#[cfg(not(feature = "probe"))]
+impl Press {
+    fn on(_: &mut VecScene, _: &[[f32; 3]], _: bool) -> Result<(Self, usize), String> {
+        Err("--probe: built without the feature probe".into())
+    }
+
+    fn step(&mut self, _: &mut VecScene, _: u32) -> Result<(StepStats, [f32; 3]), StepError> {
+        match *self {}
+    }
+}
+
+fn liver(path: &str, cg: u32, probe: Option<bool>) -> Result<Haptic, String> {
     let mesh = corofem_io::read_mesh(std::path::Path::new(path)).map_err(|e| e.to_string())?;
     let (nodes, tets) = corofem_io::to_core(&mesh, 0.03);
     let mut s = corofem_core::VecScene::with_capacity(nodes.len(), tets.len());
@@ -164,12 +308,26 @@ fn liver(path: &str, cg: u32) -> Result<Haptic, String> {
     s.fix_nodes(&[3, 39, 64]).map_err(|e| e.to_string())?;
     s.grab(&[80, 81, 78, 83, 82], 2000.0)
         .map_err(|e| e.to_string())?;
+    let mut name = format!("liver ({} nodes, {} tets)", nodes.len(), tets.len());
+    // `--probe [--friction]`: the probe scene instead of the tool.
+    let press = match probe {
+        Some(friction) => {
+            let (press, tray) = Press::on(&mut s, &nodes, friction)?;
+            name += &format!(
+                ", a 1 cm probe{} pressed 1 cm, {tray} nodes on the tray",
+                if friction { " with friction" } else { "" }
+            );
+            Some(press)
+        }
+        None => None,
+    };
     Ok(Haptic {
-        name: format!("liver ({} nodes, {} tets)", nodes.len(), tets.len()),
+        name,
         start: s.tool_target(),
         scene: s,
         radius: 0.02,
         axes: [0, 1],
+        press,
     })
 }
 
@@ -218,6 +376,7 @@ fn box10k(cg: u32) -> Result<Haptic, String> {
         scene: s,
         radius: 0.01,
         axes: [0, 2],
+        press: None,
     })
 }
 
@@ -350,14 +509,24 @@ fn main() {
             std::process::exit(2);
         }
     };
-    let liver_path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../shared/meshes/sofa_liver.tetmesh")
-        .to_string_lossy()
-        .into_owned();
+    let shared = |name: &str| {
+        PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+            .join("../../shared/meshes")
+            .join(name)
+            .to_string_lossy()
+            .into_owned()
+    };
+    let probe = args.probe.then_some(args.friction);
     let built = match args.scene.as_str() {
-        "liver" => liver(&liver_path, args.cg.unwrap_or(10)),
+        "liver" => liver(&shared("sofa_liver.tetmesh"), args.cg.unwrap_or(10), probe),
+        "liver-ftw" => liver(
+            &shared("liver_ftw_3k.tetmesh"),
+            args.cg.unwrap_or(10),
+            probe,
+        ),
+        "box10k" if args.probe => Err("--probe: on a liver (liver, liver-ftw or a file)".into()),
         "box10k" => box10k(args.cg.unwrap_or(5)),
-        path => liver(path, args.cg.unwrap_or(10)),
+        path => liver(path, args.cg.unwrap_or(10), probe),
     };
     let mut h = match built {
         Ok(h) => h,
@@ -464,7 +633,11 @@ fn main() {
         let mut target = h.start;
         target[ax] += h.radius * (omega * t).sin();
         target[ay] += h.radius * (1.0 - (omega * t).cos());
-        let st = match h.scene.step_haptic(target) {
+        let stepped = match &mut h.press {
+            Some(p) => p.step(&mut h.scene, i as u32 + 1),
+            None => h.scene.step_haptic(target).map(|st| (st, st.tool_force)),
+        };
+        let (st, f) = match stepped {
             Ok(st) => st,
             Err(e) => {
                 eprintln!("rt_loop: step {i}: {e}");
@@ -477,7 +650,6 @@ fn main() {
         }
         step_ns[i] = end - wake;
         wake_ns[i] = wake - deadline;
-        let f = st.tool_force;
         max_force = max_force.max((f[0] * f[0] + f[1] * f[1] + f[2] * f[2]).sqrt());
         worst_inverted = worst_inverted.max(st.inverted);
         if end > deadline + period {
@@ -561,7 +733,8 @@ fn main() {
         u1.nivcsw - u0.nivcsw
     );
     println!(
-        "physics    max tool force {max_force:.3} N, most inverted elements {worst_inverted}, hash {:016x}",
+        "physics    max {} force {max_force:.3} N, most inverted elements {worst_inverted}, hash {:016x}",
+        if h.press.is_some() { "probe" } else { "tool" },
         h.scene.state_hash()
     );
 }

@@ -28,7 +28,9 @@ enum corofem_status
     COROFEM_STATUS_NULL_POINTER = -1,
     // The handle is not a live scene or surface: never initialised,
     // de-initialised, misaligned, or its buffer was copied or moved after
-    // initialisation; or a surface bound to another mesh than the scene's.
+    // initialisation; or a surface bound to another mesh than the scene's;
+    // or a `corofem_coupling` that `corofem_coupling_init` never
+    // initialised.
     COROFEM_STATUS_INVALID_HANDLE = -2,
     // A caller buffer is smaller than the call needs (scene or surface
     // buffer, scratch or output array).
@@ -231,6 +233,19 @@ typedef struct {
     // The vertex at that distance (0 when every vertex is inside).
     uint32_t farthest_vertex;
 } corofem_bind_stats;
+
+// A haptic virtual coupling: a spring and a damper between a haptic
+// device and a probe that becomes its proxy, with a mass. Declare one
+// anywhere (80 bytes, aligned to 4, no pointers inside; a copy is the
+// same coupling) and initialise it with `corofem_coupling_init`. Opaque:
+// read it through the `corofem_coupling_*` functions.
+typedef struct {
+    // Set by `corofem_coupling_init`: other values are refused as
+    // `COROFEM_STATUS_INVALID_HANDLE`.
+    uint32_t magic;
+    // The coupling's state.
+    uint32_t state[19];
+} corofem_coupling;
 
 #ifdef __cplusplus
 extern "C" {
@@ -838,6 +853,126 @@ corofem_status corofem_step_probes(corofem_scene *scene,
                                    corofem_stats *out_stats,
                                    size_t *out_probe,
                                    size_t *out_node);
+
+// Initialises the haptic virtual coupling `*coupling` (a
+// `corofem_coupling` of the caller's: on the stack, static, anywhere) with
+// a spring of `stiffness` (N/m, finite, > 0), a damper of `damping`
+// (N·s/m, finite, ≥ 0) and a proxy of `proxy_mass` (kg, finite, > 0), its
+// proxy at rest. The README's "Haptic coupling" section gives how to
+// choose them for a device (for example 1000 N/m, 2 N·s/m, 0.01 kg).
+// Initialising it again starts it afresh. `COROFEM_STATUS_INVALID_ARGUMENT`
+// for a parameter out of range, with `*coupling` unchanged.
+// `COROFEM_STATUS_UNSUPPORTED` if the library was built without
+// `coupling`.
+//
+// # Safety
+//
+// `coupling` is null or points to a writable `corofem_coupling`.
+corofem_status corofem_coupling_init(corofem_coupling *coupling,
+                                     float stiffness,
+                                     float damping,
+                                     float proxy_mass);
+
+// One period of the haptic loop, before `corofem_step_probes`: the device
+// is at `device_position` (3 floats, m) moving at `device_velocity` (3
+// floats, m/s); probe `index` of the set is the coupling's proxy. Advances
+// the proxy by one step of `dt` (s, the scene's time step) under the
+// coupling's spring and damper and the force the body exerted on it in the
+// last steps, moves the probe there (`corofem_probe_move_to`, its axis
+// kept), and writes the force to render on the device (3 floats, N) to
+// `out_force` (may be null; `corofem_coupling_device_force` reads it
+// again). The step that follows moves the body against the probe.
+//
+// `COROFEM_STATUS_INVALID_ARGUMENT` for a device state that is not finite,
+// a `dt` that is not finite and > 0, or a result that overflows;
+// `COROFEM_STATUS_INDEX_OUT_OF_RANGE` for an index the set does not hold;
+// `COROFEM_STATUS_INVALID_HANDLE` for a coupling never initialised; on
+// every error neither the coupling nor the probes change and nothing is
+// written. `COROFEM_STATUS_UNSUPPORTED` if the library was built without
+// `coupling`.
+//
+// # Safety
+//
+// `coupling` is null or points to a `corofem_coupling`; `probes` is a
+// probe set handle (or null); the device's position and velocity point to
+// 3 floats each; `out_force` is null or writable for 3 floats. The
+// coupling and `out_force` lie outside the probe buffer, apart from each
+// other and from the inputs.
+corofem_status corofem_coupling_drive(corofem_coupling *coupling,
+                                      corofem_probes *probes,
+                                      size_t index,
+                                      const float *device_position,
+                                      const float *device_velocity,
+                                      float dt,
+                                      float *out_force);
+
+// Stops the coupling's proxy and forgets the rendered force and what it
+// learnt of the body, keeping its parameters: for a proxy that was just
+// placed somewhere else (`corofem_probe_place`).
+// `COROFEM_STATUS_INVALID_HANDLE` for a coupling never initialised.
+// `COROFEM_STATUS_UNSUPPORTED` if the library was built without
+// `coupling`.
+//
+// # Safety
+//
+// `coupling` is null or points to a writable `corofem_coupling`.
+corofem_status corofem_coupling_reset(corofem_coupling *coupling);
+
+// Writes the force the last `corofem_coupling_drive` returned (3 floats,
+// N; zero after `corofem_coupling_init` and `corofem_coupling_reset`) to
+// `out_force`. `COROFEM_STATUS_INVALID_HANDLE` for a coupling never
+// initialised. `COROFEM_STATUS_UNSUPPORTED` if the library was built
+// without `coupling`.
+//
+// # Safety
+//
+// `coupling` is null or points to a `corofem_coupling`; `out_force` is
+// null or writable for 3 floats, apart from the coupling.
+corofem_status corofem_coupling_device_force(const corofem_coupling *coupling, float *out_force);
+
+// Writes to `*out_stiffness` the body's stiffness at the probe (N/m) that
+// the last `corofem_coupling_drive` used: estimated from the change of
+// the body's force along the proxy's motion while it touches, it decays
+// by 1 % a period out of contact, and is 0 after `corofem_coupling_init`
+// and `corofem_coupling_reset`. `COROFEM_STATUS_INVALID_HANDLE` for a
+// coupling never initialised. `COROFEM_STATUS_UNSUPPORTED` if the library
+// was built without `coupling`.
+//
+// # Safety
+//
+// `coupling` is null or points to a `corofem_coupling`; `out_stiffness`
+// is null or writable, apart from the coupling.
+corofem_status corofem_coupling_body_stiffness(const corofem_coupling *coupling,
+                                               float *out_stiffness);
+
+// Writes the proxy's velocity at the end of the last period (3 floats,
+// m/s) to `out_velocity`. `COROFEM_STATUS_INVALID_HANDLE` for a coupling
+// never initialised. `COROFEM_STATUS_UNSUPPORTED` if the library was
+// built without `coupling`.
+//
+// # Safety
+//
+// `coupling` is null or points to a `corofem_coupling`; `out_velocity` is
+// null or writable for 3 floats, apart from the coupling.
+corofem_status corofem_coupling_proxy_velocity(const corofem_coupling *coupling,
+                                               float *out_velocity);
+
+// Writes the coupling's parameters as `corofem_coupling_init` took them:
+// the spring's stiffness (N/m) to `*out_stiffness`, the damper's
+// coefficient (N·s/m) to `*out_damping` and the proxy's mass (kg) to
+// `*out_proxy_mass`; any of them may be null.
+// `COROFEM_STATUS_INVALID_HANDLE` for a coupling never initialised.
+// `COROFEM_STATUS_UNSUPPORTED` if the library was built without
+// `coupling`.
+//
+// # Safety
+//
+// `coupling` is null or points to a `corofem_coupling`; each output is
+// null or writable, apart from the coupling and from the others.
+corofem_status corofem_coupling_parameters(const corofem_coupling *coupling,
+                                           float *out_stiffness,
+                                           float *out_damping,
+                                           float *out_proxy_mass);
 
 #ifdef __cplusplus
 }  // extern "C"

@@ -26,6 +26,11 @@
 //!  loop: corofem_probe_move_to(set, i, xyz, axis)
 //!        corofem_step_probes(s, set, &stats, &probe, &node)
 //!        corofem_probe_force(set, i, force, &contacts)             1 kHz
+//!
+//!  haptic coupling (feature `coupling`), a plain struct of the caller's:
+//!  corofem_coupling c; corofem_coupling_init(&c, k, b, m)
+//!  loop: corofem_coupling_drive(&c, set, i, device_xyz, device_vel, dt, force)
+//!        corofem_step_probes(s, set, &stats, &probe, &node)     render force
 //! ```
 //!
 //! Every function returns a [`Status`]: `COROFEM_STATUS_OK` (0) or a negative
@@ -55,6 +60,7 @@ extern crate std;
 
 mod api;
 mod arena;
+mod coupling;
 mod probe;
 mod ptr;
 mod status;
@@ -63,6 +69,7 @@ mod types;
 
 pub use api::*;
 pub use arena::{scene_bytes, SceneHandle, Slots, COROFEM_MAX_NODES};
+pub use coupling::Coupling;
 pub use probe::ProbesHandle;
 pub use status::Status;
 pub use surface::SurfaceHandle;

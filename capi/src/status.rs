@@ -16,7 +16,9 @@ pub enum Status {
     NullPointer = -1,
     /// The handle is not a live scene or surface: never initialised,
     /// de-initialised, misaligned, or its buffer was copied or moved after
-    /// initialisation; or a surface bound to another mesh than the scene's.
+    /// initialisation; or a surface bound to another mesh than the scene's;
+    /// or a `corofem_coupling` that `corofem_coupling_init` never
+    /// initialised.
     InvalidHandle = -2,
     /// A caller buffer is smaller than the call needs (scene or surface
     /// buffer, scratch or output array).

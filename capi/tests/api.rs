@@ -1355,6 +1355,48 @@ fn friction_is_unsupported_without_the_feature() {
     assert_eq!(f.hash(), before);
 }
 
+/// Without the feature `coupling` the coupling functions are there and say
+/// so, and write nothing.
+#[cfg(not(feature = "coupling"))]
+#[test]
+fn coupling_is_unsupported_without_the_feature() {
+    // SAFETY: a zeroed struct of plain integers.
+    let mut c: Coupling = unsafe { std::mem::zeroed() };
+    let before = c;
+    let (at, velocity) = ([0.0f32, 0.0, 2.0], [0.0f32; 3]);
+    let (mut force, mut x) = ([7.0f32; 3], 7.0f32);
+    // SAFETY: locals; nothing is read or written.
+    unsafe {
+        assert_eq!(
+            corofem_coupling_init(&mut c, 1000.0, 2.0, 0.01),
+            Status::Unsupported
+        );
+        let st = corofem_coupling_drive(
+            &mut c,
+            null_mut(),
+            0,
+            at.as_ptr(),
+            velocity.as_ptr(),
+            0.001,
+            force.as_mut_ptr(),
+        );
+        assert_eq!(st, Status::Unsupported);
+        assert_eq!(corofem_coupling_reset(&mut c), Status::Unsupported);
+        let st = corofem_coupling_device_force(&c, force.as_mut_ptr());
+        assert_eq!(st, Status::Unsupported);
+        assert_eq!(
+            corofem_coupling_body_stiffness(&c, &mut x),
+            Status::Unsupported
+        );
+        let st = corofem_coupling_proxy_velocity(&c, force.as_mut_ptr());
+        assert_eq!(st, Status::Unsupported);
+        let st = corofem_coupling_parameters(&c, &mut x, null_mut(), null_mut());
+        assert_eq!(st, Status::Unsupported);
+    }
+    assert_eq!(c, before);
+    assert_eq!((force, x), ([7.0; 3], 7.0));
+}
+
 /// Probes and friction through the C functions: every bad input is a
 /// status code and changes neither the scene nor the probes.
 #[cfg(all(feature = "probe", feature = "friction"))]
@@ -1687,6 +1729,377 @@ mod probes {
             assert_eq!(f.hash(), before);
             drop(f);
             drop(buf);
+        }
+    }
+
+    /// The haptic coupling through the C functions: the Rust `Coupling`'s
+    /// bits, and every bad input a status code that changes nothing.
+    #[cfg(feature = "coupling")]
+    mod coupling {
+        use super::*;
+
+        use corofem_core::{BuildOptions, Probe, VecScene};
+
+        /// k = 1000 N/m, b = 2 N·s/m, m = 10 g (the README's example).
+        const K: f32 = 1000.0;
+        const B: f32 = 2.0;
+        const M: f32 = 0.01;
+        const DT: f32 = 0.001;
+        /// The fixture's body scaled to 2 cm, so that its nodes weigh
+        /// grams, as a haptic scene's do (a 10 g proxy against a node of
+        /// tens of kilograms sees a wall), and a sphere of 4 mm 2 mm above
+        /// node 3.
+        const SCALE: f32 = 0.02;
+        const RADIUS: f32 = 0.004;
+        const START: [f32; 3] = [0.0, 0.0, SCALE + RADIUS + 0.002];
+
+        /// The device's position and velocity at step `k`: from `START`
+        /// down at 3 cm/s; the sphere's bottom reaches node 3's rest
+        /// height at step 67.
+        fn device(k: u32) -> ([f32; 3], [f32; 3]) {
+            let at = [START[0], START[1], START[2] - 3.0e-5 * k as f32];
+            (at, [0.0, 0.0, -0.03])
+        }
+
+        /// The body: the fixture's, scaled, its base fixed, no gravity.
+        fn nodes() -> [[f32; 3]; 5] {
+            NODES.map(|x| x.map(|c| c * SCALE))
+        }
+
+        fn body() -> Fixture {
+            let f = Fixture::new(NODES.len(), TETS.len());
+            assert_eq!(f.build(&nodes(), &TETS, 0).0, Status::Ok);
+            // SAFETY: a live handle and locals.
+            unsafe {
+                let st = corofem_fix_nodes(f.h, [0u32, 1, 2].as_ptr(), 3);
+                assert_eq!(st, Status::Ok);
+                let mut s = std::mem::zeroed::<Settings>();
+                assert_eq!(corofem_get_settings(f.h, &mut s), Status::Ok);
+                s.gravity = [0.0; 3];
+                assert_eq!(corofem_set_settings(f.h, &s), Status::Ok);
+            }
+            f
+        }
+
+        /// A coupling initialised with `K`, `B`, `M`.
+        fn coupling() -> Coupling {
+            // SAFETY: a zeroed struct of plain integers, then a local.
+            let mut c: Coupling = unsafe { std::mem::zeroed() };
+            // SAFETY: a local.
+            let st = unsafe { corofem_coupling_init(&mut c, K, B, M) };
+            assert_eq!(st, Status::Ok);
+            c
+        }
+
+        /// Steps `f` and `set` with its probe 0 the proxy of `c`, the
+        /// device at `device(k)` for `k` in `steps`: the forces rendered.
+        fn drive(
+            f: &Fixture,
+            set: &Set,
+            c: &mut Coupling,
+            steps: std::ops::RangeInclusive<u32>,
+        ) -> Vec<[f32; 3]> {
+            let mut rendered = Vec::new();
+            for k in steps {
+                let (at, v) = device(k);
+                let mut force = [f32::NAN; 3];
+                // SAFETY: live handles and locals.
+                unsafe {
+                    let st = corofem_coupling_drive(
+                        c,
+                        set.p,
+                        0,
+                        at.as_ptr(),
+                        v.as_ptr(),
+                        DT,
+                        force.as_mut_ptr(),
+                    );
+                    assert_eq!(st, Status::Ok, "drive {k}");
+                    let st = corofem_step_probes(f.h, set.p, null_mut(), null_mut(), null_mut());
+                    assert_eq!(st, Status::Ok, "step {k}");
+                }
+                rendered.push(force);
+            }
+            rendered
+        }
+
+        /// A set of one sphere of `RADIUS` at `START`.
+        fn sphere() -> Set {
+            let set = Set::new(1);
+            // SAFETY: a live handle and a local.
+            let st =
+                unsafe { corofem_probes_add_sphere(set.p, RADIUS, START.as_ptr(), null_mut()) };
+            assert_eq!(st, Status::Ok);
+            set
+        }
+
+        #[test]
+        fn a_coupled_press_renders_the_rust_couplings_force() {
+            let (f, set, mut c) = (body(), sphere(), coupling());
+            // The same scene, probe and coupling through the Rust API.
+            let material = corofem_core::Material {
+                young: MAT.young,
+                poisson: MAT.poisson,
+                density: MAT.density,
+            };
+            let mut s = VecScene::with_capacity(NODES.len(), TETS.len());
+            s.build(&nodes(), &TETS, &material, BuildOptions::default())
+                .unwrap();
+            s.fix_nodes(&[0, 1, 2]).unwrap();
+            let settings = corofem_core::Settings {
+                gravity: [0.0; 3],
+                ..*s.settings()
+            };
+            s.set_settings(settings).unwrap();
+            let mut probes = [Probe::sphere(RADIUS, START).unwrap()];
+            let mut rust = corofem_core::Coupling::new(K, B, M).unwrap();
+            let mut last = [0.0f32; 3];
+            for k in 1..=200 {
+                let rendered = drive(&f, &set, &mut c, k..=k)[0];
+                let (at, v) = device(k);
+                let force = rust.drive(&mut probes[0], at, v, DT).unwrap();
+                s.step_with_probes(&mut probes).unwrap();
+                let bits = |f: [f32; 3]| f.map(f32::to_bits);
+                assert_eq!(bits(rendered), bits(force), "step {k}");
+                assert_eq!(f.hash(), s.state_hash(), "step {k}");
+                assert_eq!(set.force(0), (probes[0].force(), probes[0].contacts()));
+                last = force;
+            }
+            // The device went 4 mm below node 3's rest height: the body
+            // pushes the proxy back, and the spring pulls the device up.
+            let (push, contacts) = set.force(0);
+            assert!(push[2] > 0.0 && contacts >= 1, "{push:?} {contacts}");
+            assert!(last[2] > 0.0, "{last:?}");
+            // The getters read the Rust coupling's state.
+            let (mut fo, mut v, mut body) = ([0.0f32; 3], [0.0f32; 3], 0.0f32);
+            let (mut k, mut b, mut m) = (0.0f32, 0.0f32, 0.0f32);
+            // SAFETY: an initialised coupling and locals.
+            unsafe {
+                assert_eq!(
+                    corofem_coupling_device_force(&c, fo.as_mut_ptr()),
+                    Status::Ok
+                );
+                assert_eq!(
+                    corofem_coupling_proxy_velocity(&c, v.as_mut_ptr()),
+                    Status::Ok
+                );
+                assert_eq!(corofem_coupling_body_stiffness(&c, &mut body), Status::Ok);
+                let st = corofem_coupling_parameters(&c, &mut k, &mut b, &mut m);
+                assert_eq!(st, Status::Ok);
+            }
+            assert_eq!(
+                (fo, v, body),
+                (
+                    rust.device_force(),
+                    rust.proxy_velocity(),
+                    rust.body_stiffness()
+                )
+            );
+            assert_eq!(fo, last);
+            assert!(body > 0.0, "in contact, the body's stiffness is known");
+            assert_eq!((k, b, m), (K, B, M));
+            // Reset: the proxy stops and forgets, the parameters stay.
+            // SAFETY: as above.
+            unsafe {
+                assert_eq!(corofem_coupling_reset(&mut c), Status::Ok);
+                assert_eq!(
+                    corofem_coupling_device_force(&c, fo.as_mut_ptr()),
+                    Status::Ok
+                );
+                assert_eq!(corofem_coupling_body_stiffness(&c, &mut body), Status::Ok);
+                let st = corofem_coupling_parameters(&c, &mut k, null_mut(), null_mut());
+                assert_eq!(st, Status::Ok);
+            }
+            rust.reset();
+            assert_eq!((fo, body, k), ([0.0; 3], 0.0, K));
+            assert_eq!(rust, corofem_core::Coupling::new(K, B, M).unwrap());
+            assert_eq!(c, coupling(), "a fresh coupling's bytes");
+        }
+
+        #[test]
+        fn bad_coupling_inputs_change_nothing() {
+            // Twins: `f`/`set`/`c` get every bad call between good ones,
+            // `g`/`twin`/`d` only the good ones; they must end bit-identical.
+            let (f, g) = (body(), body());
+            let (set, twin) = (sphere(), sphere());
+            let (mut c, mut d) = (coupling(), coupling());
+            drive(&f, &set, &mut c, 1..=120);
+            drive(&g, &twin, &mut d, 1..=120);
+            let (before, kept, force) = (f.hash(), c, set.force(0));
+            assert!(force.0[2] > 0.0 && force.1 >= 1, "in contact: {force:?}");
+            let (at, v) = device(121);
+            let nan = [0.0, f32::NAN, 0.0f32];
+            let inf = [f32::INFINITY, 0.0, 0.0f32];
+            let far = [0.0, 0.0, 1.0e38f32];
+            let mut out = [7.0f32; 4];
+            let o = out.as_mut_ptr();
+            // SAFETY: live handles and an initialised coupling; pointers
+            // are null, locals, misaligned, overlapping or inside the
+            // probe buffer on purpose (refused before any access).
+            unsafe {
+                // Initialising: each parameter out of range.
+                for (k, b, m) in [
+                    (0.0, B, M),
+                    (-1.0, B, M),
+                    (f32::NAN, B, M),
+                    (f32::INFINITY, B, M),
+                    (K, -0.1, M),
+                    (K, f32::NAN, M),
+                    (K, f32::INFINITY, M),
+                    (K, B, 0.0),
+                    (K, B, -0.01),
+                    (K, B, f32::NAN),
+                    (K, B, f32::INFINITY),
+                ] {
+                    let st = corofem_coupling_init(&mut c, k, b, m);
+                    assert_eq!(st, Status::InvalidArgument, "{k} {b} {m}");
+                    assert_eq!(c, kept, "{k} {b} {m}");
+                }
+                assert_eq!(
+                    corofem_coupling_init(null_mut(), K, B, M),
+                    Status::NullPointer
+                );
+                let mut words = [0u32; 21];
+                let odd = words.as_mut_ptr().cast::<u8>().add(1).cast::<Coupling>();
+                assert_eq!(corofem_coupling_init(odd, K, B, M), Status::Misaligned);
+                assert_eq!(words, [0; 21]);
+                // Driving: a bad time step, device state or result.
+                let call = |c: *mut Coupling,
+                            p: *mut ProbesHandle,
+                            i: usize,
+                            x: *const f32,
+                            v: *const f32,
+                            dt: f32,
+                            o: *mut f32| {
+                    corofem_coupling_drive(c, p, i, x, v, dt, o)
+                };
+                let cp: *mut Coupling = &mut c;
+                for dt in [0.0, -0.001, f32::NAN, f32::INFINITY] {
+                    let st = call(cp, set.p, 0, at.as_ptr(), v.as_ptr(), dt, o);
+                    assert_eq!(st, Status::InvalidArgument, "dt {dt}");
+                }
+                for (x, u) in [(nan, v), (inf, v), (at, nan), (at, inf), (far, v)] {
+                    let st = call(cp, set.p, 0, x.as_ptr(), u.as_ptr(), DT, o);
+                    assert_eq!(st, Status::InvalidArgument, "{x:?} {u:?}");
+                }
+                // Indices, null pointers, handles.
+                let st = call(cp, set.p, 1, at.as_ptr(), v.as_ptr(), DT, o);
+                assert_eq!(st, Status::IndexOutOfRange);
+                let st = call(null_mut(), set.p, 0, at.as_ptr(), v.as_ptr(), DT, o);
+                assert_eq!(st, Status::NullPointer);
+                let st = call(cp, null_mut(), 0, at.as_ptr(), v.as_ptr(), DT, o);
+                assert_eq!(st, Status::NullPointer);
+                let st = call(cp, set.p, 0, null(), v.as_ptr(), DT, o);
+                assert_eq!(st, Status::NullPointer);
+                let st = call(cp, set.p, 0, at.as_ptr(), null(), DT, o);
+                assert_eq!(st, Status::NullPointer);
+                let st = call(cp, f.h.cast(), 0, at.as_ptr(), v.as_ptr(), DT, o);
+                assert_eq!(st, Status::InvalidHandle, "the scene is not a probe set");
+                let mut zeroed: Coupling = std::mem::zeroed();
+                let st = call(&mut zeroed, set.p, 0, at.as_ptr(), v.as_ptr(), DT, o);
+                assert_eq!(st, Status::InvalidHandle, "never initialised");
+                // Misaligned, overlapping, inside the probe buffer.
+                let odd_out = o.cast::<u8>().add(1).cast::<f32>();
+                let st = call(cp, set.p, 0, at.as_ptr(), v.as_ptr(), DT, odd_out);
+                assert_eq!(st, Status::Misaligned);
+                let st = call(cp, set.p, 0, at.as_ptr(), v.as_ptr(), DT, cp.cast());
+                assert_eq!(st, Status::Overlap, "the force over the coupling");
+                let mut x = at;
+                let st = call(cp, set.p, 0, x.as_ptr(), v.as_ptr(), DT, x.as_mut_ptr());
+                assert_eq!(st, Status::Overlap, "the force over the position");
+                let st = call(cp, set.p, 0, at.as_ptr(), cp.cast(), DT, o);
+                assert_eq!(st, Status::Overlap, "the velocity inside the coupling");
+                let inside = set.p.cast::<u8>().add(64);
+                let st = call(cp, set.p, 0, at.as_ptr(), v.as_ptr(), DT, inside.cast());
+                assert_eq!(st, Status::Overlap);
+                let st = call(cp, set.p, 0, inside.cast(), v.as_ptr(), DT, o);
+                assert_eq!(st, Status::Overlap);
+                let st = call(inside.cast(), set.p, 0, at.as_ptr(), v.as_ptr(), DT, o);
+                assert_eq!(st, Status::Overlap, "the coupling inside the probe buffer");
+                assert_eq!(x, at);
+                assert_eq!(out, [7.0; 4], "no force written on error");
+                // Reset and the getters.
+                assert_eq!(corofem_coupling_reset(null_mut()), Status::NullPointer);
+                assert_eq!(corofem_coupling_reset(&mut zeroed), Status::InvalidHandle);
+                assert_eq!(zeroed, std::mem::zeroed(), "a refused reset writes nothing");
+                let cc: *const Coupling = cp;
+                assert_eq!(
+                    corofem_coupling_device_force(null(), o),
+                    Status::NullPointer
+                );
+                assert_eq!(
+                    corofem_coupling_device_force(cc, null_mut()),
+                    Status::NullPointer
+                );
+                assert_eq!(
+                    corofem_coupling_device_force(&zeroed, o),
+                    Status::InvalidHandle
+                );
+                assert_eq!(
+                    corofem_coupling_device_force(cc, odd_out),
+                    Status::Misaligned
+                );
+                assert_eq!(
+                    corofem_coupling_device_force(cc, cp.cast()),
+                    Status::Overlap
+                );
+                assert_eq!(
+                    corofem_coupling_proxy_velocity(cc, cp.cast::<f32>().add(17)),
+                    Status::Overlap
+                );
+                assert_eq!(
+                    corofem_coupling_body_stiffness(cc, cp.cast()),
+                    Status::Overlap
+                );
+                assert_eq!(
+                    corofem_coupling_body_stiffness(&zeroed, o),
+                    Status::InvalidHandle
+                );
+                let st = corofem_coupling_parameters(cc, o, o, null_mut());
+                assert_eq!(st, Status::Overlap, "two parameters in one float");
+                let st = corofem_coupling_parameters(cc, o, o.add(1), cp.cast());
+                assert_eq!(st, Status::Overlap);
+                assert_eq!(out, [7.0; 4], "no output written on error");
+            }
+            assert_eq!(c, kept, "no error changed the coupling");
+            assert_eq!(f.hash(), before, "nor the scene");
+            assert_eq!(set.force(0), force, "nor the probe");
+            // Then the same good periods: the twins stay bit-identical
+            // (a refused drive did not move the probe either).
+            let ours = drive(&f, &set, &mut c, 121..=200);
+            let theirs = drive(&g, &twin, &mut d, 121..=200);
+            assert_eq!(ours, theirs);
+            assert_eq!(c, d);
+            assert_eq!(f.hash(), g.hash());
+            assert_eq!(set.force(0), twin.force(0));
+            // A copy is the same coupling.
+            let mut copy = c;
+            let (at, v) = device(201);
+            let (mut a, mut b) = ([0.0f32; 3], [0.0f32; 3]);
+            // SAFETY: initialised couplings, live handles and locals.
+            unsafe {
+                let st = corofem_coupling_drive(
+                    &mut copy,
+                    set.p,
+                    0,
+                    at.as_ptr(),
+                    v.as_ptr(),
+                    DT,
+                    a.as_mut_ptr(),
+                );
+                assert_eq!(st, Status::Ok);
+                let st = corofem_coupling_drive(
+                    &mut d,
+                    twin.p,
+                    0,
+                    at.as_ptr(),
+                    v.as_ptr(),
+                    DT,
+                    b.as_mut_ptr(),
+                );
+                assert_eq!(st, Status::Ok);
+            }
+            assert_eq!((a, copy), (b, d));
         }
     }
 }

@@ -310,9 +310,10 @@ fn liver_with_two_level_same_hash_from_rust_and_c() {
     assert_ne!(rust, mass);
 }
 
-/// The probe scenes of the C example (`--probe`, `--friction`): a 1 cm
-/// sphere pressed into the body from above, slid and lifted, instead of
-/// the tool; the body held by a tray, without gravity.
+/// The probe scenes of the C example (`--probe`, `--friction`,
+/// `--coupling`): a 1 cm sphere pressed into the body from above, slid and
+/// lifted, instead of the tool; the body held by a tray, without gravity.
+/// With the coupling the path is the device's and the sphere its proxy.
 #[cfg(feature = "probe")]
 mod probe_scene {
     use super::*;
@@ -394,13 +395,15 @@ mod probe_scene {
     /// What a run records: the hash, the final force on the probe, its
     /// largest push against the pressing direction, and the sum of its
     /// force along x (the slide's direction) over the first slide, steps
-    /// 301 to 800 (N; times 1 ms, the impulse).
+    /// 301 to 800 (N; times 1 ms, the impulse); with the coupling, every
+    /// force rendered on the device.
     #[derive(Debug, PartialEq)]
     struct Run {
         hash: u64,
         force: [f32; 3],
         peak_push: f32,
         slide_x: f32,
+        rendered: Vec<[f32; 3]>,
     }
 
     /// Adds step `k`'s force `f` to `run`.
@@ -418,7 +421,22 @@ mod probe_scene {
             force: [0.0; 3],
             peak_push: 0.0,
             slide_x: 0.0,
+            rendered: Vec::new(),
         }
+    }
+
+    /// The C example's coupling (`--coupling`): 1000 N/m, 2 N·s/m, 10 g.
+    const COUPLING: (f32, f32, f32) = (1000.0, 2.0, 0.01);
+
+    /// The device's velocity as the C example measures it: the difference
+    /// of its positions over the period, in its float operations.
+    fn velocity(at: [f32; 3], last: [f32; 3], dt: f32) -> [f32; 3] {
+        [0, 1, 2].map(|c| (at[c] - last[c]) / dt)
+    }
+
+    /// Bit for bit: `-0.0` is not `0.0`, and NaN is itself.
+    fn bits(forces: &[[f32; 3]]) -> Vec<[u32; 3]> {
+        forces.iter().map(|f| f.map(f32::to_bits)).collect()
     }
 
     fn friction(on: bool) -> Option<(f32, f32)> {
@@ -426,7 +444,7 @@ mod probe_scene {
     }
 
     /// Through the Rust API.
-    fn run_rust(d: &Def, is_box: bool, mu: Option<(f32, f32)>, steps: u32) -> Run {
+    fn run_rust(d: &Def, is_box: bool, mu: Option<(f32, f32)>, coupled: bool, steps: u32) -> Run {
         let (d, up, c0, b) = scene(d, is_box);
         let mut s = corofem_core::VecScene::with_capacity(d.nodes.len(), d.tets.len());
         s.build(&d.nodes, &d.tets, &d.material, BuildOptions::default())
@@ -438,10 +456,19 @@ mod probe_scene {
             probes[0].set_friction(Friction::new(st, kin).unwrap());
         }
         let mut run = empty();
+        let (k, damper, m) = COUPLING;
+        let mut coupling = corofem_core::Coupling::new(k, damper, m).unwrap();
+        let (dt, mut device) = (d.settings.dt, c0);
         for i in 0..steps {
-            probes[0]
-                .move_to(path(c0, b, i + 1), [0.0, 0.0, 1.0])
-                .unwrap();
+            let at = path(c0, b, i + 1);
+            if coupled {
+                let v = velocity(at, device, dt);
+                let f = coupling.drive(&mut probes[0], at, v, dt).unwrap();
+                run.rendered.push(f);
+                device = at;
+            } else {
+                probes[0].move_to(at, [0.0, 0.0, 1.0]).unwrap();
+            }
             s.step_with_probes(&mut probes).unwrap();
             track(&mut run, up, i + 1, probes[0].force());
         }
@@ -451,7 +478,7 @@ mod probe_scene {
 
     /// Through the C functions, the scene and the probes each in a heap
     /// buffer at an odd address.
-    fn run_capi(d: &Def, is_box: bool, mu: Option<(f32, f32)>, steps: u32) -> Run {
+    fn run_capi(d: &Def, is_box: bool, mu: Option<(f32, f32)>, coupled: bool, steps: u32) -> Run {
         let (d, up, c0, b) = scene(d, is_box);
         let d = &d;
         let (_buf, h) = capi_scene(d);
@@ -484,10 +511,35 @@ mod probe_scene {
             let (mut force, mut contacts) = ([0.0f32; 3], 0u32);
             let mut stats = Stats::default();
             let mut run = empty();
+            // The coupling: a plain struct of the caller's, here at an odd
+            // 4-byte address inside a larger array.
+            let mut words = [0u32; 22];
+            let coupling = words.as_mut_ptr().add(1).cast::<corofem_capi::Coupling>();
+            let (k, damper, m) = COUPLING;
+            let st = corofem_capi::corofem_coupling_init(coupling, k, damper, m);
+            assert_eq!(st, Status::Ok);
+            let (dt, mut device) = (d.settings.dt, c0);
             for i in 0..steps {
                 let at = path(c0, b, i + 1);
-                let st = corofem_capi::corofem_probe_move_to(p, 0, at.as_ptr(), std::ptr::null());
-                assert_eq!(st, Status::Ok);
+                let st = if coupled {
+                    let v = velocity(at, device, dt);
+                    let mut f = [f32::NAN; 3];
+                    let st = corofem_capi::corofem_coupling_drive(
+                        coupling,
+                        p,
+                        0,
+                        at.as_ptr(),
+                        v.as_ptr(),
+                        dt,
+                        f.as_mut_ptr(),
+                    );
+                    run.rendered.push(f);
+                    device = at;
+                    st
+                } else {
+                    corofem_capi::corofem_probe_move_to(p, 0, at.as_ptr(), std::ptr::null())
+                };
+                assert_eq!(st, Status::Ok, "step {i}");
                 let st = corofem_capi::corofem_step_probes(
                     h,
                     p,
@@ -514,22 +566,34 @@ mod probe_scene {
 
     /// The three ways agree, bit for bit; the probe pushed on the body
     /// while pressed; returns the Rust run.
-    fn check(d: &Def, is_box: bool, with_friction: bool, mesh_arg: &str) -> Run {
+    fn check(d: &Def, is_box: bool, with_friction: bool, coupled: bool, mesh_arg: &str) -> Run {
         let mu = friction(with_friction);
-        let rust = run_rust(d, is_box, mu, STEPS);
-        let capi = run_capi(d, is_box, mu, STEPS);
+        let rust = run_rust(d, is_box, mu, coupled, STEPS);
+        let capi = run_capi(d, is_box, mu, coupled, STEPS);
         println!(
-            "{mesh_arg} probe{}: rust hash {:016x}, {rust:?}",
+            "{mesh_arg} probe{}{}: rust hash {:016x}, force {:?}, largest push {}",
             if with_friction { " with friction" } else { "" },
+            if coupled { ", coupled" } else { "" },
             rust.hash,
+            rust.force,
+            rust.peak_push,
         );
+        assert_eq!(rust.hash, capi.hash);
+        assert_eq!(bits(&rust.rendered), bits(&capi.rendered));
         assert_eq!(rust, capi);
+        assert_eq!(
+            rust.rendered.len(),
+            if coupled { STEPS as usize } else { 0 }
+        );
         // Pressed 1 cm below the node's rest height, the body pushes the
         // probe back.
         assert!(rust.peak_push > 0.0, "{rust:?}");
         let mut args = vec![mesh_arg.to_owned(), STEPS.to_string(), "--probe".into()];
         if with_friction {
             args.push("--friction".into());
+        }
+        if coupled {
+            args.push("--coupling".into());
         }
         let args: Vec<&str> = args.iter().map(String::as_str).collect();
         if let Some(c) = run_c(&args) {
@@ -544,8 +608,8 @@ mod probe_scene {
 
     #[test]
     fn box_probe_same_hash_from_rust_and_c() {
-        let plain = check(&box_def(), true, false, "box");
-        let rough = check(&box_def(), true, true, "box");
+        let plain = check(&box_def(), true, false, false, "box");
+        let rough = check(&box_def(), true, true, false, "box");
         // Friction reached the solve: it changes the state, and over the
         // slide along +x the surface the probe drags holds it back (−x)
         // more than the frictionless surface it ploughs.
@@ -563,9 +627,34 @@ mod probe_scene {
         };
         let p = path.to_string_lossy().into_owned();
         let d = liver_def(&path);
-        let plain = check(&d, false, false, &p);
-        let rough = check(&d, false, true, &p);
+        let plain = check(&d, false, false, false, &p);
+        let rough = check(&d, false, true, false, &p);
         // Friction reached the solve.
         assert_ne!(plain.hash, rough.hash);
+    }
+
+    /// `--coupling`: the path is the device's, the sphere its proxy; the
+    /// coupling's forces and the state are the Rust `Coupling`'s, bit for
+    /// bit.
+    #[cfg(feature = "coupling")]
+    #[test]
+    fn coupled_probe_same_hash_from_rust_and_c() {
+        let direct = check(&box_def(), true, false, false, "box");
+        let coupled = check(&box_def(), true, false, true, "box");
+        // The proxy is not the device: the body moved otherwise.
+        assert_ne!(direct.hash, coupled.hash);
+        // Pressed 1 cm in, the spring pulls the device back up (+z) at
+        // the deepest point, step 300.
+        let deepest = coupled.rendered[299];
+        assert!(deepest[2] > 0.0, "{deepest:?}");
+        let Some(path) = common::shared_mesh("liver_ftw_3k.tetmesh") else {
+            return;
+        };
+        let p = path.to_string_lossy().into_owned();
+        let d = liver_def(&path);
+        let coupled = check(&d, false, false, true, &p);
+        let deepest = coupled.rendered[299];
+        assert!(deepest[1] > 0.0, "the liver's up is +y: {deepest:?}");
+        check(&d, false, true, true, &p);
     }
 }
