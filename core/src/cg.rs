@@ -16,7 +16,18 @@
 //! The residual `r` is kept *unfiltered*: the iterates are the same as with a
 //! filtered residual (every inner product goes through `z = S P⁻¹ r`), and
 //! its constrained components are the constraint forces, which the ground
-//! uses to release nodes.
+//! and the probes use to release nodes.
+//!
+//! Inner products take the *filtered* residual, `rᵀz` as `(S r)ᵀ z`. The two
+//! are equal in exact arithmetic (`z` is filtered), but in f32 `S`'s output
+//! keeps a constrained component of rounding size, and a held node's
+//! residual there is its contact impulse. Near rest that impulse is many
+//! orders of magnitude above the free residual, so `rᵀz` formed from the
+//! unfiltered `r` is mostly rounding, and so are the step lengths made
+//! from it: a long solve on a body resting against a probe then wanders,
+//! leaks velocity into the held nodes' normals and releases them (the
+//! contact chatters), or diverges. `(S r)ᵀ z` has no such term. Nodes that
+//! nothing holds see no difference (`S` returns them unchanged).
 
 use crate::math::{axpy, dot, scale, sqrt, Vec3};
 use crate::storage::NodeWork;
@@ -93,7 +104,8 @@ pub(crate) fn solve(
         rz = pre(work);
         for (i, w) in work.iter_mut().enumerate() {
             if scalar_norm {
-                rm += dot(w.r, project(i, scale(w.r, w.inv_p)));
+                let rf = project(i, w.r);
+                rm += dot(rf, scale(rf, w.inv_p));
             }
             w.d = w.q;
             w.q = [0.0; 3];
@@ -103,10 +115,11 @@ pub(crate) fn solve(
         }
     } else {
         for (i, w) in work.iter_mut().enumerate() {
-            let z = project(i, scale(w.r, w.inv_p));
+            let rf = project(i, w.r);
+            let z = scale(rf, w.inv_p);
             w.d = z;
             w.q = [0.0; 3];
-            rz += dot(w.r, z);
+            rz += dot(rf, z);
         }
         rm = rz;
     }
@@ -178,7 +191,8 @@ pub(crate) fn solve(
                 w.x = axpy(w.x, alpha, w.d);
                 w.r = axpy(w.r, -alpha, w.q);
                 if scalar_norm {
-                    sum += dot(w.r, project(i, scale(w.r, w.inv_p)));
+                    let rf = project(i, w.r);
+                    sum += dot(rf, scale(rf, w.inv_p));
                     w.q = [0.0; 3];
                 }
             }
@@ -195,9 +209,10 @@ pub(crate) fn solve(
         for (i, w) in work.iter_mut().enumerate() {
             w.x = axpy(w.x, alpha, w.d);
             w.r = axpy(w.r, -alpha, w.q);
-            let z = project(i, scale(w.r, w.inv_p));
+            let rf = project(i, w.r);
+            let z = scale(rf, w.inv_p);
             w.q = z;
-            rz_new += dot(w.r, z);
+            rz_new += dot(rf, z);
         }
         let beta = rz_new / rz;
         rz = rz_new;

@@ -392,7 +392,9 @@ pub(crate) fn apply(
         let mut rz = 0.0f32;
         for (i, (w, b)) in work.iter_mut().zip(p.blocks.iter()).enumerate() {
             w.q = project(i, sym_vec(&b.inv, input(i, w.r)));
-            rz += dot(w.r, w.q);
+            // `(S r)ᵀ z`, not `rᵀ z`: a held node's contact impulse in `r`
+            // would meet `z`'s rounding there (`cg`'s module docs).
+            rz += dot(project(i, w.r), w.q);
         }
         return rz;
     }
@@ -436,7 +438,8 @@ pub(crate) fn apply(
             let local = add(add(w.q, t), cross(om, sub(n.x0, a.c0)));
             w.q = project(i, mat_vec(&a.rot, local));
         }
-        rz += dot(w.r, w.q);
+        // `(S r)ᵀ z`, as above.
+        rz += dot(project(i, w.r), w.q);
     }
     rz
 }

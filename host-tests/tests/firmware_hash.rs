@@ -113,7 +113,7 @@ fn firmware_scene_in_contact_golden_hashes() {
     // print the same values.
     let golden = [
         (ContactSet::GROUND, 0x4ad0_b5a8_7475_d643),
-        (ContactSet::PROBE, 0x0cc9_a791_fe7d_bdcf),
+        (ContactSet::PROBE, 0x4cb5_8f9b_c384_4b6f),
         (ContactSet::PROBE_FRICTION, 0x4544_0fe8_874d_a52d),
     ];
     for (set, want) in golden {
