@@ -26,8 +26,9 @@
 //! unfiltered `r` is mostly rounding, and so are the step lengths made
 //! from it: a long solve on a body resting against a probe then wanders,
 //! leaks velocity into the held nodes' normals and releases them (the
-//! contact chatters), or diverges. `(S r)ᵀ z` has no such term. Nodes that
-//! nothing holds see no difference (`S` returns them unchanged).
+//! contact chatters), or ends with its residual grown. `(S r)ᵀ z` has no
+//! such term. Nodes that nothing holds see no difference (`S` returns them
+//! unchanged).
 
 use crate::math::{axpy, dot, scale, sqrt, Vec3};
 use crate::storage::NodeWork;
