@@ -43,6 +43,10 @@
 //!
 //! docs/capi.md's step-time figures come from this program.
 
+#[cfg(feature = "probe")]
+#[path = "shared/probe_path.rs"]
+mod probe_path;
+
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -240,27 +244,9 @@ impl Press {
     }
 
     /// The sphere's centre at the end of step `step` (1-based), as
-    /// `haptic_loop.c`'s `probe_path`: down to the deepest point over
-    /// 300 steps, 15 mm along +x over 500, up over 300, back over 100.
+    /// `haptic_loop.c`'s `probe_path`.
     fn path(&self, step: u32) -> [f32; 3] {
-        let (c0, b) = (self.start, self.deepest);
-        let slide = 0.015f32;
-        let k = (step - 1) % 1200 + 1;
-        let (s, side) = if k <= 300 {
-            (k as f32 / 300.0, 0.0)
-        } else if k <= 800 {
-            (1.0, slide * ((k - 300) as f32 / 500.0))
-        } else if k <= 1100 {
-            ((1100 - k) as f32 / 300.0, slide)
-        } else {
-            (0.0, slide * ((1200 - k) as f32 / 100.0))
-        };
-        let mut c = [0.0f32; 3];
-        for i in 0..3 {
-            c[i] = c0[i] + (b[i] - c0[i]) * s;
-        }
-        c[0] += side;
-        c
+        probe_path::path(self.start, self.deepest, step)
     }
 
     /// One period: the sphere moved along the path, a step, and the force

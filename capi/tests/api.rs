@@ -1444,7 +1444,11 @@ mod probes {
     /// without gravity (this soft metre-sized body would sag away from the
     /// probe): node 3 at (0, 0, 1) and node 4 at (1, 1, 1) are free.
     fn scene() -> Fixture {
-        let f = Fixture::built();
+        fixed_base_without_gravity(Fixture::built())
+    }
+
+    /// `f` with nodes 0, 1 and 2 fixed and gravity off.
+    fn fixed_base_without_gravity(f: Fixture) -> Fixture {
         // SAFETY: a live handle and locals.
         unsafe {
             let st = corofem_fix_nodes(f.h, [0u32, 1, 2].as_ptr(), 3);
@@ -1769,16 +1773,7 @@ mod probes {
         fn body() -> Fixture {
             let f = Fixture::new(NODES.len(), TETS.len());
             assert_eq!(f.build(&nodes(), &TETS, 0).0, Status::Ok);
-            // SAFETY: a live handle and locals.
-            unsafe {
-                let st = corofem_fix_nodes(f.h, [0u32, 1, 2].as_ptr(), 3);
-                assert_eq!(st, Status::Ok);
-                let mut s = std::mem::zeroed::<Settings>();
-                assert_eq!(corofem_get_settings(f.h, &mut s), Status::Ok);
-                s.gravity = [0.0; 3];
-                assert_eq!(corofem_set_settings(f.h, &s), Status::Ok);
-            }
-            f
+            super::fixed_base_without_gravity(f)
         }
 
         /// A coupling initialised with `K`, `B`, `M`.

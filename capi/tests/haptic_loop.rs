@@ -10,6 +10,9 @@ use corofem_capi::{Material, Settings, Stats, Status};
 use corofem_core::{BoxMesh, BuildOptions};
 
 mod common;
+#[cfg(feature = "probe")]
+#[path = "../examples/shared/probe_path.rs"]
+mod probe_path;
 
 /// One scene of the C example, exactly as it builds it.
 struct Def {
@@ -372,25 +375,7 @@ mod probe_scene {
     }
 
     /// The C example's `probe_path`: the centre at the end of step `step`.
-    fn path(c0: [f32; 3], b: [f32; 3], step: u32) -> [f32; 3] {
-        let slide = 0.015f32;
-        let k = (step - 1) % 1200 + 1;
-        let (s, side) = if k <= 300 {
-            (k as f32 / 300.0, 0.0)
-        } else if k <= 800 {
-            (1.0, slide * ((k - 300) as f32 / 500.0))
-        } else if k <= 1100 {
-            ((1100 - k) as f32 / 300.0, slide)
-        } else {
-            (0.0, slide * ((1200 - k) as f32 / 100.0))
-        };
-        let mut c = [0.0f32; 3];
-        for i in 0..3 {
-            c[i] = c0[i] + (b[i] - c0[i]) * s;
-        }
-        c[0] += side;
-        c
-    }
+    use super::probe_path::path;
 
     /// What a run records: the hash, the final force on the probe, its
     /// largest push against the pressing direction, and the sum of its

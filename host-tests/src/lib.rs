@@ -64,6 +64,15 @@ pub fn shared_mesh(name: &str) -> CoreMesh {
     }
 }
 
+/// The largest depth of any boundary node inside `probe` (m, 0 when none
+/// is inside).
+pub fn penetration(scene: &VecScene, probe: &corofem::Probe) -> f32 {
+    (0..scene.node_count() as u32)
+        .filter(|&i| scene.on_boundary(i))
+        .map(|i| -probe.distance(scene.position(i).unwrap_or([0.0; 3])))
+        .fold(0.0, f32::max)
+}
+
 /// A generated box mesh.
 pub fn box_mesh(size: [f32; 3], cells: [u32; 3], tets_per_cell: u8) -> CoreMesh {
     let b = BoxMesh {

@@ -18,7 +18,7 @@
 //! measured in the same table with a block twice the size).
 
 use corofem::{Material, Probe, Settings, VecScene};
-use corofem_host_tests::{box_mesh, CoreMesh};
+use corofem_host_tests::{box_mesh, penetration, CoreMesh};
 
 /// Young's modulus (Pa) and Poisson's ratio of the block.
 const YOUNG: f32 = 1.0e5;
@@ -52,6 +52,20 @@ struct Block {
 }
 
 impl Block {
+    /// The block's scene, fixed at its base.
+    fn scene(&self) -> VecScene {
+        let mesh = graded_block(self.w, self.t, self.n, self.nz, self.beta);
+        let mut scene = mesh.scene(&Material {
+            young: YOUNG,
+            poisson: POISSON,
+            density: 1000.0,
+        });
+        scene
+            .fix_nodes(&mesh.select(|p| p[2] < 1e-7))
+            .expect("base nodes");
+        scene
+    }
+
     /// The cell size at the centre of the top face (m).
     fn spacing(&self) -> f64 {
         let b = f64::from(self.beta);
@@ -80,15 +94,7 @@ fn hertz(d: f64) -> f64 {
 /// Presses the sphere `depths` deep in turn (each over 0.1 s, then held
 /// for 0.3 s) and returns the force at rest at each depth.
 fn indent(b: &Block, depths: &[f64]) -> Vec<Rest> {
-    let mesh = graded_block(b.w, b.t, b.n, b.nz, b.beta);
-    let mut scene: VecScene = mesh.scene(&Material {
-        young: YOUNG,
-        poisson: POISSON,
-        density: 1000.0,
-    });
-    scene
-        .fix_nodes(&mesh.select(|p| p[2] < 1e-7))
-        .expect("base nodes");
+    let mut scene = b.scene();
     let h = 1e-3;
     scene
         .set_settings(Settings {
@@ -124,15 +130,11 @@ fn indent(b: &Block, depths: &[f64]) -> Vec<Rest> {
             .iter()
             .map(|f| (f - force).abs() / force.abs())
             .fold(0.0, f64::max);
-        let penetration = (0..scene.node_count() as u32)
-            .filter(|&i| scene.on_boundary(i))
-            .map(|i| -probes[0].distance(scene.position(i).unwrap()))
-            .fold(0.0f32, f32::max);
         rests.push(Rest {
             force,
             drift,
             contacts: probes[0].contacts(),
-            penetration,
+            penetration: penetration(&scene, &probes[0]),
         });
     }
     rests
@@ -257,15 +259,7 @@ fn a_long_solve_holds_a_resting_contact_steady() {
         nz: 8,
         beta: 3.0,
     };
-    let mesh = graded_block(b.w, b.t, b.n, b.nz, b.beta);
-    let mut scene: VecScene = mesh.scene(&Material {
-        young: YOUNG,
-        poisson: POISSON,
-        density: 1000.0,
-    });
-    scene
-        .fix_nodes(&mesh.select(|p| p[2] < 1e-7))
-        .expect("base nodes");
+    let mut scene = b.scene();
     scene
         .set_settings(Settings {
             dt: 1e-3,

@@ -3,7 +3,7 @@
 //! impulse, the sweep of a fast probe, bad input.
 
 use corofem::{Error, Material, Parameter, Plane, Probe, Settings, StepError, VecScene};
-use corofem_host_tests::{box_mesh, CoreMesh};
+use corofem_host_tests::{box_mesh, penetration, CoreMesh};
 
 /// A soft block, 4 × 4 × 2 cm, 6 tetrahedra per cell, its bottom at z = 0.
 fn block(cells: [u32; 3]) -> (CoreMesh, VecScene) {
@@ -21,15 +21,6 @@ fn total_mass(scene: &VecScene) -> f64 {
     (0..scene.node_count() as u32)
         .map(|i| f64::from(scene.mass(i).unwrap()))
         .sum()
-}
-
-/// The largest depth of any boundary node inside the probe (m, 0 when none
-/// is inside).
-fn penetration(scene: &VecScene, probe: &Probe) -> f32 {
-    (0..scene.node_count() as u32)
-        .filter(|&i| scene.on_boundary(i))
-        .map(|i| -probe.distance(scene.position(i).unwrap()))
-        .fold(0.0, f32::max)
 }
 
 #[test]
