@@ -1,6 +1,7 @@
 //! nalgebra interop (feature `nalgebra`): positions, velocities, forces and
-//! tool targets go in and out as `Point3<f32>` and `Vector3<f32>`, the types
-//! rapier, bevy and parry users hold their data in.
+//! tool targets go in and out as `Point3<f32>` and `Vector3<f32>`, and a
+//! probe's pose as an `Isometry3<f32>`: the types rapier, bevy and parry
+//! users hold their data in.
 //!
 //! Slices convert without a copy: a `Point3<f32>` and a `Vector3<f32>` are
 //! three `f32` in a row, like the core's [`Vec3`](crate::Vec3) `[f32; 3]`,
@@ -21,7 +22,33 @@
 //! `set_velocities`) have `_points` and `_vectors` twins here that pass the
 //! view on; single values convert with nalgebra's `From` (`Point3::from`,
 //! `.into()`), which the `*_point` and `*_vector` getters do.
+//!
+//! A probe follows a tool's pose with [`Probe::move_to_isometry`](crate::Probe::move_to_isometry)
+//! (feature `probe`): the pose's translation is the probe's centre and its
+//! rotation turns the local z axis into the capsule's axis, so a capsule is
+//! modelled along its local z (a sphere ignores the rotation). A haptic
+//! device drives a [`Coupling`](crate::Coupling) with
+//! [`Coupling::drive_point`](crate::Coupling::drive_point) (feature `coupling`).
+//!
+//! ```
+//! # #[cfg(feature = "probe")]
+//! # {
+//! use corofem::Probe;
+//! use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion};
+//!
+//! // A tool shaft 1 cm across, 4 cm long, turned 90° about x: along −y.
+//! let mut shaft = Probe::capsule(0.005, 0.02, [0.0, 0.0, 0.1], [0.0, 0.0, 1.0]).unwrap();
+//! let half = core::f32::consts::FRAC_1_SQRT_2; // cos 45° = sin 45°
+//! let turn = UnitQuaternion::new_unchecked(Quaternion::new(half, half, 0.0, 0.0));
+//! // (With nalgebra's `std` or `libm`: `Isometry3::new(translation, axis_angle)`.)
+//! let pose = Isometry3 { rotation: turn, translation: Translation3::new(0.0, 0.0, 0.08) };
+//! shaft.move_to_isometry(&pose).unwrap();
+//! assert!((shaft.axis()[1] + 1.0).abs() < 1e-6);
+//! # }
+//! ```
 
+#[cfg(feature = "probe")]
+use nalgebra::Isometry3;
 use nalgebra::{Point3, Vector3};
 
 use crate::error::Error;
@@ -139,6 +166,92 @@ impl StepStats {
     pub fn tool_force_vector(&self) -> Vector3<f32> {
         Vector3::from(self.tool_force)
     }
+
+    /// [`StepStats::support_force`] as a nalgebra vector (N).
+    #[must_use]
+    pub fn support_force_vector(&self) -> Vector3<f32> {
+        Vector3::from(self.support_force)
+    }
+}
+
+/// The centre and axis of a probe posed by `pose`: its translation, and
+/// its rotation applied to the local z axis. For the unit quaternion
+/// `(w; x, y, z)` that is the rotation matrix's third column,
+/// `(2 (x z + w y), 2 (y z − w x), 1 − 2 (x² + y²))`, written out: nalgebra's
+/// quaternion product needs `f32: RealField`, which its `no_std` build
+/// without `libm` does not give.
+#[cfg(feature = "probe")]
+fn centre_and_axis(pose: &Isometry3<f32>) -> ([f32; 3], [f32; 3]) {
+    // nalgebra keeps a quaternion's coordinates as (i, j, k, w).
+    let q = &pose.rotation.as_ref().coords;
+    let (x, y, z, w) = (q.x, q.y, q.z, q.w);
+    let axis = [
+        2.0 * (x * z + w * y),
+        2.0 * (y * z - w * x),
+        1.0 - 2.0 * (x * x + y * y),
+    ];
+    (pose.translation.vector.into(), axis)
+}
+
+#[cfg(feature = "probe")]
+impl crate::Probe {
+    /// [`Probe::move_to`](crate::Probe::move_to) a tool's pose: the probe's
+    /// centre at the pose's translation, a capsule's axis along the pose's
+    /// rotation of the local z axis. Refused, with the probe unchanged, for
+    /// a pose that is not finite.
+    pub fn move_to_isometry(&mut self, pose: &Isometry3<f32>) -> Result<(), Error> {
+        let (centre, axis) = centre_and_axis(pose);
+        self.move_to(centre, axis)
+    }
+
+    /// [`Probe::place`](crate::Probe::place) at a pose, as
+    /// [`Probe::move_to_isometry`](crate::Probe::move_to_isometry) reads it.
+    pub fn place_isometry(&mut self, pose: &Isometry3<f32>) -> Result<(), Error> {
+        let (centre, axis) = centre_and_axis(pose);
+        self.place(centre, axis)
+    }
+
+    /// [`Probe::position`](crate::Probe::position) as a nalgebra point (m).
+    #[must_use]
+    pub fn position_point(&self) -> Point3<f32> {
+        Point3::from(self.position())
+    }
+
+    /// [`Probe::axis`](crate::Probe::axis) as a nalgebra vector (unit).
+    #[must_use]
+    pub fn axis_vector(&self) -> Vector3<f32> {
+        Vector3::from(self.axis())
+    }
+
+    /// [`Probe::force`](crate::Probe::force) as a nalgebra vector (N).
+    #[must_use]
+    pub fn force_vector(&self) -> Vector3<f32> {
+        Vector3::from(self.force())
+    }
+}
+
+#[cfg(feature = "coupling")]
+impl crate::Coupling {
+    /// [`Coupling::drive`](crate::Coupling::drive) from a device's position
+    /// (m) and velocity (m/s) as nalgebra types; the force to render (N)
+    /// comes back as a vector.
+    pub fn drive_point(
+        &mut self,
+        probe: &mut crate::Probe,
+        device: Point3<f32>,
+        device_velocity: Vector3<f32>,
+        dt: f32,
+    ) -> Result<Vector3<f32>, Error> {
+        self.drive(probe, device.into(), device_velocity.into(), dt)
+            .map(Vector3::from)
+    }
+
+    /// [`Coupling::device_force`](crate::Coupling::device_force) as a
+    /// nalgebra vector (N).
+    #[must_use]
+    pub fn device_force_vector(&self) -> Vector3<f32> {
+        Vector3::from(self.device_force())
+    }
 }
 
 #[cfg(test)]
@@ -220,5 +333,98 @@ mod tests {
         );
         assert!(b.set_positions_points(&bad[..n]).is_err());
         assert_eq!(a.state_hash(), b.state_hash());
+    }
+
+    /// A pose moves a capsule as its centre and rotated z axis do; a pose
+    /// that is not finite is refused and changes nothing.
+    #[cfg(feature = "probe")]
+    #[test]
+    fn probes_follow_isometries() {
+        use crate::Probe;
+        use core::f32::consts::FRAC_1_SQRT_2 as HALF;
+        use nalgebra::{Quaternion, Translation3, UnitQuaternion};
+        let pose_of = |w: f32, x: f32, y: f32, z: f32| {
+            // A struct literal: `Isometry3::from_parts` and `new` need
+            // `f32: RealField`, which this no_std build lacks.
+            Isometry3 {
+                rotation: UnitQuaternion::new_unchecked(Quaternion::new(w, x, y, z)),
+                translation: Translation3::new(0.01, 0.02, 0.03),
+            }
+        };
+        let mut by_pose = Probe::capsule(0.01, 0.02, [0.0, 0.0, 0.1], [0.0, 0.0, 1.0]).unwrap();
+        let mut by_arrays = by_pose;
+        // 90° about x turns z into −y; 90° about y turns it into +x; the
+        // identity keeps it. The quaternions' 1/√2 rounds in f32, so the
+        // axes are exact to a few ulps of 1.
+        for ((w, x, y, z), want) in [
+            ((HALF, HALF, 0.0, 0.0), [0.0, -1.0, 0.0]),
+            ((HALF, 0.0, HALF, 0.0), [1.0, 0.0, 0.0]),
+            ((1.0, 0.0, 0.0, 0.0), [0.0, 0.0, 1.0]),
+        ] {
+            let mut p = by_pose;
+            p.move_to_isometry(&pose_of(w, x, y, z)).unwrap();
+            for k in 0..3 {
+                assert!((p.axis()[k] - want[k]).abs() < 1e-6, "{:?}", p.axis());
+            }
+        }
+        let pose = pose_of(HALF, HALF, 0.0, 0.0);
+        by_pose.move_to_isometry(&pose).unwrap();
+        assert_eq!(by_pose.position_point(), Point3::new(0.01, 0.02, 0.03));
+        // The same as the array method given the same centre and axis.
+        by_arrays
+            .move_to([0.01, 0.02, 0.03], by_pose.axis())
+            .unwrap();
+        assert_eq!(by_pose, by_arrays);
+        assert_eq!(by_pose.axis_vector(), Vector3::from(by_pose.axis()));
+        assert_eq!(by_pose.force_vector(), Vector3::from(by_pose.force()));
+        // Placing takes the same reading, without the sweep.
+        let mut placed = by_arrays;
+        placed.place_isometry(&pose).unwrap();
+        assert_eq!(placed.position(), by_pose.position());
+        assert_eq!(placed.axis(), by_pose.axis());
+        // Not finite: refused, the probe unchanged.
+        let before = by_pose;
+        let mut bad = pose;
+        bad.translation.vector.x = f32::NAN;
+        assert!(by_pose.move_to_isometry(&bad).is_err());
+        assert!(by_pose.place_isometry(&bad).is_err());
+        let mut bad = pose;
+        bad.rotation = nalgebra::UnitQuaternion::new_unchecked(nalgebra::Quaternion::new(
+            f32::INFINITY,
+            0.0,
+            0.0,
+            0.0,
+        ));
+        assert!(by_pose.move_to_isometry(&bad).is_err());
+        assert_eq!(by_pose, before);
+    }
+
+    /// The coupling driven through nalgebra types gives the bits of the
+    /// coupling driven with arrays.
+    #[cfg(feature = "coupling")]
+    #[test]
+    fn couplings_through_nalgebra_match_couplings_through_arrays() {
+        use crate::{Coupling, Probe};
+        let mut a = Coupling::new(1000.0, 2.0, 0.01).unwrap();
+        let mut b = a;
+        let mut pa = Probe::sphere(0.01, [0.0, 0.0, 0.05]).unwrap();
+        let mut pb = pa;
+        for k in 0..10 {
+            let x = [0.001 * k as f32, 0.0, 0.05 - 0.002 * k as f32];
+            let v = [0.001, 0.0, -0.002];
+            let fa = a.drive(&mut pa, x, v, 1e-3).unwrap();
+            let fb = b
+                .drive_point(&mut pb, Point3::from(x), Vector3::from(v), 1e-3)
+                .unwrap();
+            assert_eq!(Vector3::from(fa), fb);
+        }
+        assert_eq!(a, b);
+        assert_eq!(pa, pb);
+        assert_eq!(b.device_force_vector(), Vector3::from(a.device_force()));
+        // Bad input is refused as through the arrays, changing nothing.
+        let nan = Point3::new(f32::NAN, 0.0, 0.0);
+        assert!(b.drive_point(&mut pb, nan, Vector3::zeros(), 1e-3).is_err());
+        assert_eq!(a, b);
+        assert_eq!(pa, pb);
     }
 }
