@@ -11,7 +11,9 @@
 #     with libm's software square root instead of vsqrt as well, and tuned
 #     for the Cortex-M4 with the assembly's VMUL+VADD form
 #     (_fpu-product-vmul), and with the core's features two-level and
-#     nalgebra compiled in but unused: same hash. Every size is also built
+#     nalgebra compiled in but unused: same hash, and with the firmware's
+#     feature nalgebra, which calls the core's nalgebra twins of the probe
+#     and the coupling (so the proof covers them): same hash. Every size is also built
 #     running the two-level preconditioner (the firmware's feature
 #     two-level), against the host's and wasm32's hashes of that run.
 #     The reference size is also built with the features ground, probe
@@ -225,6 +227,8 @@ FW_RUSTFLAGS="-C target-cpu=cortex-m4" FW_TARGET_DIR="$CARGO_TARGET_DIR/firmware
   run_firmware "$REFERENCE" cortex-m4 --features _fpu-product-vmul
 step "firmware with the core's features two-level and nalgebra compiled in, unused ($REFERENCE): same hash"
 run_firmware "$REFERENCE" features --features corofem/two-level,corofem/nalgebra
+step "firmware calling the core's nalgebra twins of the probe and the coupling ($REFERENCE): linked panic-free, same hash"
+run_firmware "$REFERENCE" nalgebra --features nalgebra
 step "firmware running the two-level preconditioner (4 CG iterations, warm start), every size: the host's two-level hashes"
 for cells in "${SIZES[@]}"; do
   FW_HASHES="$OUT/host-two-level.hashes" run_firmware "$cells" two-level --features two-level

@@ -26,7 +26,15 @@
 //! A probe follows a tool's pose with [`Probe::move_to_isometry`](crate::Probe::move_to_isometry)
 //! (feature `probe`): the pose's translation is the probe's centre and its
 //! rotation turns the local z axis into the capsule's axis, so a capsule is
-//! modelled along its local z (a sphere ignores the rotation). A haptic
+//! modelled along its local z (a sphere ignores the rotation), the axis
+//! [`Probe::sphere`](crate::Probe::sphere) starts with. parry's
+//! `Capsule::new_y` and rapier's `ColliderBuilder::capsule_y` lie along
+//! their local y instead (their `_z` twins along z, as a probe): such a
+//! collider's pose becomes a probe's with its rotation `r` replaced by
+//! `r * q`, `q` the quarter turn about x that takes z to y (−90°, the
+//! quaternion `(√½; −√½, 0, 0)`). [`Probe::pose_isometry`](crate::Probe::pose_isometry)
+//! reads a pose back: the shortest arc from z to the axis, without the roll
+//! about it, which a probe does not store. A haptic
 //! device drives a [`Coupling`](crate::Coupling) with
 //! [`Coupling::drive_point`](crate::Coupling::drive_point) (feature `coupling`).
 //!
@@ -44,11 +52,15 @@
 //! let pose = Isometry3 { rotation: turn, translation: Translation3::new(0.0, 0.0, 0.08) };
 //! shaft.move_to_isometry(&pose).unwrap();
 //! assert!((shaft.axis()[1] + 1.0).abs() < 1e-6);
+//! // Read back: the same centre, and the quarter turn about x.
+//! let back = shaft.pose_isometry();
+//! assert_eq!(back.translation, pose.translation);
+//! assert!((back.rotation.coords - turn.coords).amax() < 1e-6);
 //! # }
 //! ```
 
 #[cfg(feature = "probe")]
-use nalgebra::Isometry3;
+use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion};
 use nalgebra::{Point3, Vector3};
 
 use crate::error::Error;
@@ -193,6 +205,35 @@ fn centre_and_axis(pose: &Isometry3<f32>) -> ([f32; 3], [f32; 3]) {
     (pose.translation.vector.into(), axis)
 }
 
+/// The shortest-arc rotation that turns the local z axis into the unit
+/// `axis` `(a_x, a_y, a_z)`: about `z × axis`, by the angle θ between them.
+/// Its quaternion is `(1 + a_z; −a_y, a_x, 0)` over its length
+/// `√(2 (1 + a_z))`, i.e. `(cos θ/2; sin θ/2 · (z × axis)/|z × axis|)`.
+/// Below the xy plane `1 + a_z` would cancel, so it is formed as
+/// `(a_x² + a_y²) / (1 − a_z)`, the same for a unit axis, without the loss.
+/// The axis opposite z has no shortest arc: it takes the half turn about x.
+/// Written out, as `centre_and_axis`: `UnitQuaternion::rotation_between`
+/// needs `f32: RealField`.
+#[cfg(feature = "probe")]
+fn rotation_from_z(axis: [f32; 3]) -> UnitQuaternion<f32> {
+    let [x, y, z] = axis;
+    let w = if z >= 0.0 {
+        1.0 + z
+    } else {
+        (x * x + y * y) / (1.0 - z)
+    };
+    let n2 = w * w + x * x + y * y;
+    // Opposite z (or too close for the squares to be normal numbers, less
+    // than 1e-19 away): the half turn about x, which also turns z into −z.
+    let q = if crate::math::regular(n2) {
+        let r = 1.0 / crate::math::sqrt(n2);
+        Quaternion::new(w * r, -y * r, x * r, 0.0)
+    } else {
+        Quaternion::new(0.0, 1.0, 0.0, 0.0)
+    };
+    UnitQuaternion::new_unchecked(q)
+}
+
 #[cfg(feature = "probe")]
 impl crate::Probe {
     /// [`Probe::move_to`](crate::Probe::move_to) a tool's pose: the probe's
@@ -209,6 +250,24 @@ impl crate::Probe {
     pub fn place_isometry(&mut self, pose: &Isometry3<f32>) -> Result<(), Error> {
         let (centre, axis) = centre_and_axis(pose);
         self.place(centre, axis)
+    }
+
+    /// The probe's pose as an isometry, the inverse reading of
+    /// [`Probe::move_to_isometry`](crate::Probe::move_to_isometry): the
+    /// translation is the centre the next step ends at, the rotation the
+    /// shortest arc that turns the local z axis into the probe's axis (for
+    /// the axis opposite z, the half turn about x). A probe stores an axis,
+    /// not a roll about it, so `move_to_isometry(&probe.pose_isometry())`
+    /// keeps the centre and the axis, and a pose read back has no roll. A
+    /// sphere's axis is the last one it was given (`[0, 0, 1]` from
+    /// [`Probe::sphere`](crate::Probe::sphere)). The rotation is unit to the
+    /// math backend's square root: to a few ulps with `libm`.
+    #[must_use]
+    pub fn pose_isometry(&self) -> Isometry3<f32> {
+        Isometry3 {
+            rotation: rotation_from_z(self.axis()),
+            translation: Translation3::from(Vector3::from(self.position())),
+        }
     }
 
     /// [`Probe::position`](crate::Probe::position) as a nalgebra point (m).
@@ -353,11 +412,13 @@ mod tests {
         };
         let mut by_pose = Probe::capsule(0.01, 0.02, [0.0, 0.0, 0.1], [0.0, 0.0, 1.0]).unwrap();
         let mut by_arrays = by_pose;
-        // 90° about x turns z into −y; 90° about y turns it into +x; the
-        // identity keeps it. The quaternions' 1/√2 rounds in f32, so the
-        // axes are exact to a few ulps of 1.
+        // 90° about x turns z into −y, −90° about x into +y (a y-capsule
+        // collider's turn, in the module docs); 90° about y turns it into
+        // +x; the identity keeps it. The quaternions' 1/√2 rounds in f32, so
+        // the axes are exact to a few ulps of 1.
         for ((w, x, y, z), want) in [
             ((HALF, HALF, 0.0, 0.0), [0.0, -1.0, 0.0]),
+            ((HALF, -HALF, 0.0, 0.0), [0.0, 1.0, 0.0]),
             ((HALF, 0.0, HALF, 0.0), [1.0, 0.0, 0.0]),
             ((1.0, 0.0, 0.0, 0.0), [0.0, 0.0, 1.0]),
         ] {
@@ -397,6 +458,123 @@ mod tests {
         ));
         assert!(by_pose.move_to_isometry(&bad).is_err());
         assert_eq!(by_pose, before);
+        // A rotation of NaNs gives a NaN axis, which the array methods
+        // refuse: whatever the translation, nothing changes.
+        let mut bad = pose;
+        bad.rotation = nalgebra::UnitQuaternion::new_unchecked(nalgebra::Quaternion::new(
+            f32::NAN,
+            f32::NAN,
+            f32::NAN,
+            f32::NAN,
+        ));
+        assert_eq!(
+            by_pose.move_to_isometry(&bad),
+            by_arrays.move_to([0.0; 3], [f32::NAN; 3])
+        );
+        assert!(by_pose.place_isometry(&bad).is_err());
+        assert_eq!(by_pose, before);
+    }
+
+    /// A probe's pose reads back as the shortest arc from z to its axis,
+    /// and moving a probe to the pose read back keeps its centre and axis,
+    /// the axis opposite z and the axes near it included.
+    #[cfg(feature = "probe")]
+    #[test]
+    fn probe_poses_read_back() {
+        use crate::Probe;
+        use core::f32::consts::FRAC_1_SQRT_2 as HALF;
+        use nalgebra::{Quaternion, Translation3, UnitQuaternion};
+        // Tolerance: the axis and the quaternion are unit vectors formed by
+        // a few f32 products, one square root and one division, each off by
+        // half an ulp of 1 (6e-8). The largest error below, 2.4e-7 (the
+        // axis read back from [-3, 0.5, -2]), is 2 ulps; 1e-6 is 8, and
+        // 1e-6 rad of angle, far below what a tool's pose carries.
+        const TOL: f32 = 1e-6;
+        let centre = [0.01, -0.02, 0.03];
+        let mut probe = Probe::capsule(0.005, 0.02, centre, [0.0, 0.0, 1.0]).unwrap();
+        // The sphere's and the fresh capsule's axis, z: the identity.
+        let sphere = Probe::sphere(0.01, centre).unwrap();
+        for p in [sphere, probe] {
+            let pose = p.pose_isometry();
+            assert_eq!(
+                pose.rotation.into_inner(),
+                Quaternion::new(1.0, 0.0, 0.0, 0.0)
+            );
+            assert_eq!(pose.translation.vector, Vector3::from(centre));
+        }
+        let tiny = 1e-10; // its square, 1e-20, vanishes next to 1
+        for axis in [
+            [0.0, -1.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 2.0, 3.0],
+            [-3.0, 0.5, -2.0],
+            [1e-3, 0.0, -1.0],
+            [0.0, -1e-4, -1.0],
+            [tiny, tiny, -1.0],
+            [0.0, 0.0, -1.0],
+        ] {
+            probe.move_to(centre, axis).unwrap();
+            let a = probe.axis();
+            let pose = probe.pose_isometry();
+            let q = pose.rotation.into_inner();
+            // Unit, about an axis in the xy plane (⊥ z and ⊥ the axis: the
+            // shortest arc), by the angle θ between z and the axis:
+            // w = cos θ/2 ≥ 0, w² = (1 + a_z)/2.
+            let n2 = q.w * q.w + q.i * q.i + q.j * q.j + q.k * q.k;
+            assert!((n2 - 1.0).abs() < TOL, "{axis:?}: {q:?}");
+            assert_eq!(q.k, 0.0);
+            assert!(q.w >= 0.0);
+            assert!(
+                (q.w * q.w - 0.5 * (1.0 + a[2])).abs() < TOL,
+                "{axis:?}: {q:?}"
+            );
+            assert!((q.i * a[0] + q.j * a[1]).abs() < TOL, "{axis:?}: {q:?}");
+            // The round trip: the same centre, bit for bit, and the axis.
+            let mut back = Probe::capsule(0.005, 0.02, [0.0; 3], [1.0, 0.0, 0.0]).unwrap();
+            back.move_to_isometry(&pose).unwrap();
+            assert_eq!(back.position(), centre);
+            for k in 0..3 {
+                assert!(
+                    (back.axis()[k] - a[k]).abs() < TOL,
+                    "{axis:?}: {:?}",
+                    back.axis()
+                );
+            }
+        }
+        // Opposite z, exactly: the half turn about x.
+        assert_eq!(
+            probe.pose_isometry().rotation.into_inner(),
+            Quaternion::new(0.0, 1.0, 0.0, 0.0)
+        );
+        // 90° about x turns z into −y, and the pose read back is that turn.
+        let turn = UnitQuaternion::new_unchecked(Quaternion::new(HALF, HALF, 0.0, 0.0));
+        let pose = Isometry3 {
+            rotation: turn,
+            translation: Translation3::new(0.0, 0.0, 0.08),
+        };
+        probe.move_to_isometry(&pose).unwrap();
+        let back = probe.pose_isometry();
+        assert_eq!(back.translation, pose.translation);
+        assert!(
+            (back.rotation.coords - turn.coords).amax() < TOL,
+            "{back:?}"
+        );
+        // A roll about the local z (a quarter turn) is not stored: the pose
+        // reads back without it, with the same centre and axis.
+        let roll = UnitQuaternion::new_unchecked(Quaternion::new(HALF, 0.0, 0.0, HALF));
+        probe
+            .move_to_isometry(&Isometry3 {
+                rotation: roll,
+                translation: pose.translation,
+            })
+            .unwrap();
+        assert_eq!(probe.axis(), [0.0, 0.0, 1.0]);
+        let back = probe.pose_isometry();
+        assert_eq!(
+            back.rotation.into_inner(),
+            Quaternion::new(1.0, 0.0, 0.0, 0.0)
+        );
+        assert_eq!(back.translation, pose.translation);
     }
 
     /// The coupling driven through nalgebra types gives the bits of the

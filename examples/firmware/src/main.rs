@@ -207,8 +207,57 @@ fn run(scene: &mut FwScene) -> bool {
         .peak_stack
         .max(measure::stack_top() - measure::lowest_touched());
 
+    #[cfg(feature = "nalgebra")]
+    let twins_ok = nalgebra_twins();
+    #[cfg(not(feature = "nalgebra"))]
+    let twins_ok = true;
+
     report(&outcome, &costs, &cal, &touch, verdict, split_ok);
-    verdict.is_ok() && split_ok
+    verdict.is_ok() && split_ok && twins_ok
+}
+
+/// The core's nalgebra twins of the probe and the coupling (feature
+/// `nalgebra`), on inputs the optimiser cannot see, so that the proof
+/// covers them: a capsule placed and moved by a pose turned 90° about x,
+/// the pose read back, one step of a coupling driving it. True when the
+/// axis is −y and the pose reads back as that turn, to 1e-6 (a few ulps of
+/// 1), and the force is finite.
+#[cfg(feature = "nalgebra")]
+#[inline(never)]
+fn nalgebra_twins() -> bool {
+    use core::hint::black_box;
+    use nalgebra::{Isometry3, Point3, Quaternion, Translation3, UnitQuaternion, Vector3};
+    let half = black_box(core::f32::consts::FRAC_1_SQRT_2);
+    let pose = Isometry3 {
+        rotation: UnitQuaternion::new_unchecked(Quaternion::new(half, half, 0.0, 0.0)),
+        translation: Translation3::new(0.0, 0.0, black_box(0.08)),
+    };
+    let Ok(mut probe) = corofem::Probe::capsule(0.005, 0.02, [0.0; 3], [0.0, 0.0, 1.0]) else {
+        return false;
+    };
+    let Ok(mut coupling) = corofem::Coupling::new(1000.0, 2.0, 0.01) else {
+        return false;
+    };
+    if probe.place_isometry(&pose).is_err() || probe.move_to_isometry(&pose).is_err() {
+        return false;
+    }
+    let back = probe.pose_isometry();
+    let device = Point3::new(0.0, 0.0, black_box(0.079));
+    let Ok(force) = coupling.drive_point(&mut probe, device, Vector3::zeros(), 1e-3) else {
+        return false;
+    };
+    let axis = probe.axis_vector();
+    defmt::info!(
+        "nalgebra twins: axis {=f32} {=f32} {=f32}, force {=f32} N",
+        axis.x,
+        axis.y,
+        axis.z,
+        coupling.device_force_vector().z
+    );
+    (axis.y + 1.0).abs() < 1e-6
+        && (back.rotation.coords - pose.rotation.coords).amax() < 1e-6
+        && force.z.is_finite()
+        && probe.force_vector().z.is_finite()
 }
 
 /// Generates the mesh into scratch on the stack (freed on return) and builds
