@@ -371,10 +371,13 @@ pub(crate) fn commit_rotations(aggs: &mut [Aggregate]) {
 }
 
 /// `z = S (D⁻¹ + Φ A_c⁻¹ Φᵀ) S r` into every `q` (two-level when `aggs` is
-/// not empty, else block-Jacobi); returns `rᵀz` summed in node order.
-/// `input(i, r)` gives what node `i` contributes in place of `S r` (its
-/// filter, or a residual with the rigid part taken out), and
-/// `project(i, v)` applies node `i`'s filter `S` to the output.
+/// not empty, else block-Jacobi); returns `(S r)ᵀz` summed in node order.
+/// `project(i, v)` applies node `i`'s filter `S`, to the residual and to
+/// the output; `input(i, S r)` gives what node `i` contributes in place of
+/// `S r` (itself, or with the rigid part taken out).
+///
+/// `(S r)ᵀz`, not `rᵀz`: a held node's contact impulse in `r` would meet
+/// `z`'s rounding there (`cg`'s module docs).
 ///
 /// With aggregates, node blocks are held in their aggregate's frame
 /// (`D = R_a D_local R_aᵀ`, prepared with the factor), so that both parts
@@ -391,10 +394,9 @@ pub(crate) fn apply(
     if p.aggs.is_empty() {
         let mut rz = 0.0f32;
         for (i, (w, b)) in work.iter_mut().zip(p.blocks.iter()).enumerate() {
-            w.q = project(i, sym_vec(&b.inv, input(i, w.r)));
-            // `(S r)ᵀ z`, not `rᵀ z`: a held node's contact impulse in `r`
-            // would meet `z`'s rounding there (`cg`'s module docs).
-            rz += dot(project(i, w.r), w.q);
+            let rf = project(i, w.r);
+            w.q = project(i, sym_vec(&b.inv, input(i, rf)));
+            rz += dot(rf, w.q);
         }
         return rz;
     }
@@ -410,7 +412,7 @@ pub(crate) fn apply(
     {
         w.q = [0.0; 3];
         if let Some(a) = p.aggs.get_mut(b.aggregate as usize) {
-            let rl = mat_t_vec(&a.rot, input(i, w.r));
+            let rl = mat_t_vec(&a.rot, input(i, project(i, w.r)));
             w.q = sym_vec(&b.inv, rl);
             let m = cross(sub(n.x0, a.c0), rl);
             a.y = [
@@ -438,7 +440,6 @@ pub(crate) fn apply(
             let local = add(add(w.q, t), cross(om, sub(n.x0, a.c0)));
             w.q = project(i, mat_vec(&a.rot, local));
         }
-        // `(S r)ᵀ z`, as above.
         rz += dot(project(i, w.r), w.q);
     }
     rz

@@ -477,10 +477,11 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
     let whole = (kind != Preconditioner::Mass).then_some(
         #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
         |work: &mut [NodeWork]| match rigid {
-            None => crate::precond::apply(nodes, work, &mut pre, project, project),
+            None => crate::precond::apply(nodes, work, &mut pre, |_, r| r, project),
             Some(body) => {
                 // Rigid modes exact (`Rigid::finish`): P⁻¹ of the residual
-                // less the rigid motion of its net force and torque.
+                // less the rigid motion of its net force and torque. (Nothing
+                // holds an isolated body, so `S r` is `r` here.)
                 let force = body.fit(nodes_ro, work, |_, w| w.r);
                 let input = |i: usize, r: Vec3| match nodes_ro.get(i) {
                     Some(n) => axpy(r, -n.mass, body.at(n, force)),
@@ -585,7 +586,7 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
         let whole = (kind != Preconditioner::Mass).then_some(
             #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
             |work: &mut [NodeWork]| {
-                crate::precond::apply(nodes_ro, work, &mut pre, project, project)
+                crate::precond::apply(nodes_ro, work, &mut pre, |_, r| r, project)
             },
         );
         #[cfg(not(feature = "two-level"))]
