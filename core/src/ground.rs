@@ -192,11 +192,17 @@ impl Contact {
 
     /// Whether a node with velocity `v` at the end distance `dist` is held:
     /// it touches or is inside the plane and does not move away from it
-    /// faster than the plane moves (`lift / h`).
+    /// faster than the plane moves (`lift / h`), beyond the rounding of
+    /// `n·v` (4 ε times the magnitudes it is summed from). A node that
+    /// [`Contact::stop`] left inside a tilted plane or a probe keeps a
+    /// normal velocity of that rounding, of either sign; without the
+    /// allowance half of them would go free and sink further in.
     #[inline]
     #[must_use]
     pub(crate) fn holds(&self, dist: f32, v: Vec3, h: f32) -> bool {
-        dist <= 0.0 && dot(self.normal, v) <= self.lift / h
+        let away = dot(self.normal, v) - self.lift / h;
+        let size = v[0].abs() + v[1].abs() + v[2].abs() + (self.lift / h).abs();
+        dist <= 0.0 && away <= 4.0 * f32::EPSILON * size
     }
 
     /// The velocity change to prescribe along the normal for a held node at

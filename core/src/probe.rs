@@ -14,7 +14,12 @@
 //! reaches during the step is held on the probe's tangent plane at the
 //! step's end. Its normal velocity is prescribed, the normal is filtered out
 //! of the solve, the contact impulse comes from the residual, and a contact
-//! that would pull is released for the next step. No penalty spring: the
+//! that would pull is released for the next step. A node whose contact
+//! pushes ends the step on the probe's surface: sliding by `s` along the
+//! tangent plane leaves it outside the curved surface by about `s² / 2r`,
+//! and it is moved back along the normal, so that the next step finds it
+//! touching and holds it again (a pressed node never goes free for a step,
+//! which would let the body drive it deep into the probe). No penalty spring: the
 //! step stays stable at any time step, and a stiff body does not need a
 //! small one.
 //!
@@ -329,6 +334,19 @@ impl Probe {
         ))
     }
 
+    /// How far a node that the probe held over the step, ending at `x`,
+    /// lies outside the probe's surface: the vector from the surface to
+    /// `x` along the normal, or `None` on or inside it. A held node ends on
+    /// the plane tangent where the step began; sliding along it by `s`
+    /// leaves it outside the curved surface by about `s² / 2r`, and then
+    /// outside the next step's contact plane too. (The step moves a node
+    /// whose contact pushes back onto the surface by this vector.)
+    pub(crate) fn outside(&self, x: Vec3) -> Option<Vec3> {
+        let a = sub(x, self.nearest(self.position, self.axis, x));
+        let d = sqrt(dot(a, a));
+        (d > self.radius).then(|| scale(a, (d - self.radius) / d))
+    }
+
     /// Keeps what a successful step summed and starts the next step where
     /// this one ended.
     pub(crate) fn commit(&mut self, h: f32) {
@@ -340,10 +358,10 @@ impl Probe {
     }
 
     /// The largest distance outside the probe at which a node it held last
-    /// step is still held: held on the tangent plane at the step's end, a
-    /// node at `x` that slid along the plane by up to `h |v|` ends outside
-    /// the curved surface by up to `(h |v|)² / 2r`; plus the rounding of
-    /// the distance.
+    /// step is still held. The step moves a pushing node from its tangent
+    /// plane onto the surface ([`Probe::outside`]); this allows for the
+    /// drift that sliding by up to `h |v|` along a plane would leave,
+    /// `(h |v|)² / 2r`, plus the rounding of the distance.
     pub(crate) fn gap(&self, x: Vec3, v: Vec3, h: f32) -> f32 {
         h * h * dot(v, v) / (2.0 * self.radius) + self.rounding(x, self.position)
     }

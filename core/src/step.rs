@@ -668,9 +668,12 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
         } else {
             v
         };
-        // Friction moves held nodes' velocities and positions.
+        // Friction moves held nodes' velocities and positions; a probe
+        // moves its pushing nodes' positions onto its surface.
         #[cfg(feature = "friction")]
-        let (mut u, mut v) = (u, v);
+        let mut v = v;
+        #[cfg(any(feature = "friction", feature = "probe"))]
+        let mut u = u;
         // The constraint impulses are `−r` from the step's solve. After
         // `relax` (which kept the step's `Σ r` over the fixed nodes and
         // `n·r` of held nodes in `pull`), `r` is the push's residual `r_w`:
@@ -744,6 +747,16 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
                 {
                     p.next_force = sub(p.next_force, impulse);
                     p.next_contacts += 1;
+                    // A node its contact still pushes (it stays held) ends
+                    // on the curved surface, not outside it on the tangent
+                    // plane: else the next step would find it off the probe
+                    // and let it go for a step, in which the body's push
+                    // drives it deep inside (a contact that flickers).
+                    if w.pull <= 0.0 {
+                        if let Some(off) = p.outside(add(n.x0, u)) {
+                            u = sub(u, off);
+                        }
+                    }
                 }
             }
         }
@@ -1106,9 +1119,9 @@ impl<'a> Obstacles<'a> {
     /// away; a probe (for a node on the boundary) if the probe reaches it
     /// during the step and it is not moving away faster than the probe.
     /// Of several, the one the node ends deepest in. A probe that held the
-    /// node last step (`was`) holds it while it is within the gap that
-    /// sliding along the last step's tangent plane leaves ([`Probe::gap`]),
-    /// however the node moves: a node pressed by a moving probe moves with
+    /// node last step (`was`) holds it while it is within [`Probe::gap`] of
+    /// the surface (where the last step left it, up to rounding and the
+    /// probe's own turn), however the node moves: a node pressed by a moving probe moves with
     /// it, as fast as its plane up to rounding, and one pressed against a
     /// still probe stays on it; the contact force decides release.
     #[inline(always)]

@@ -170,7 +170,7 @@ fn report(label: &str, b: &Block, depths: &[f64], rests: &[Rest]) {
 /// Asserted, with what the mesh justifies:
 /// - the block comes to rest (the force changes by < 1e-4 over 0.1 s);
 /// - no boundary node is inside the sphere beyond rounding (the held nodes
-///   sit on its tangent planes; 1e-7 m is 10⁻⁴ of a cell);
+///   sit on its surface; 1e-7 m is 10⁻⁴ of a cell);
 /// - the force is within 20 % of Hertz's, from above: with 2 to 3 nodes
 ///   across the contact radius, node-based contact overestimates the
 ///   contact area by up to about a node spacing (the finer meshes of
