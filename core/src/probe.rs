@@ -4,7 +4,10 @@
 //! A probe is the caller's value ([`Probe`]), passed to
 //! [`Scene::step_with_probes`](crate::Scene::step_with_probes) as a slice, so
 //! a scene holds any number of them without a slot of its own: an array, a
-//! `Vec` or a `heapless::Vec` serve alike. [`Probe::move_to`] sets the pose
+//! `Vec` or a `heapless::Vec` serve alike, and probes may come and go
+//! between steps (a node a probe held stays held by whichever probe it
+//! touches, so taking one out of the slice, which renumbers the others,
+//! does not let their nodes go). [`Probe::move_to`] sets the pose
 //! the probe reaches at the end of the next step; the step moves it there
 //! from where the last step left it and writes back the force the body
 //! exerted on it ([`Probe::force`]), what a haptic device renders.

@@ -1118,12 +1118,15 @@ impl<'a> Obstacles<'a> {
     /// the ground if the node touches or is below it and is not moving
     /// away; a probe (for a node on the boundary) if the probe reaches it
     /// during the step and it is not moving away faster than the probe.
-    /// Of several, the one the node ends deepest in. A probe that held the
-    /// node last step (`was`) holds it while it is within [`Probe::gap`] of
-    /// the surface (where the last step left it, up to rounding and the
-    /// probe's own turn), however the node moves: a node pressed by a moving probe moves with
-    /// it, as fast as its plane up to rounding, and one pressed against a
-    /// still probe stays on it; the contact force decides release.
+    /// Of several, the one the node ends deepest in. A node held last step
+    /// (`was`) is held by a probe while it is within [`Probe::gap`] of its
+    /// surface (where the last step left it, up to rounding and the probe's
+    /// own turn), however the node moves: a node pressed by a moving probe
+    /// moves with it, as fast as its plane up to rounding, and one pressed
+    /// against a still probe stays on it; the contact force decides
+    /// release. Whichever obstacle held it: a node touching the probe is
+    /// held, and a caller that takes a probe out of the slice renumbers the
+    /// ones after it.
     #[inline(always)]
     fn deepest(&self, n: &Node, x: Vec3, h: f32, was: Option<u16>) -> Option<(u16, Contact)> {
         let mut best: Option<(u16, Contact, f32)> = None;
@@ -1142,7 +1145,7 @@ impl<'a> Obstacles<'a> {
                 let c = p.contact(x);
                 let dist = c.distance(x);
                 let id = k as u16 + 1;
-                let holds = c.holds(dist, n.v, h) || (was == Some(id) && dist <= p.gap(x, n.v, h));
+                let holds = c.holds(dist, n.v, h) || (was.is_some() && dist <= p.gap(x, n.v, h));
                 if holds && best.is_none_or(|b| dist < b.2) {
                     best = Some((id, c, dist));
                 }
