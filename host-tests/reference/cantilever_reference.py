@@ -100,17 +100,23 @@ def node_sets(p):
 # --------------------------------------------------------------------------
 # 1) scikit-fem solution
 # --------------------------------------------------------------------------
-def solve_skfem(p, t):
+def assemble(p, t, element, nu):
+    """The vector basis of `element` on the mesh, the stiffness for Poisson
+    ratio `nu`, and the consistent gravity load."""
     mesh = MeshTet(np.ascontiguousarray(p.T), np.ascontiguousarray(t.T))
-    basis = Basis(mesh, ElementVector(ElementTetP1()))
-    lam, mu = lame_parameters(E, NU)
+    basis = Basis(mesh, ElementVector(element))
+    lam, mu = lame_parameters(E, nu)
     K = asm(linear_elasticity(lam, mu), basis)
 
     @LinearForm
     def body_force(v, w):
         return RHO * dot(G_VEC.reshape(3, 1, 1) * np.ones_like(v.value), v)
 
-    f_grav = asm(body_force, basis)
+    return basis, K, asm(body_force, basis)
+
+
+def solve_skfem(p, t):
+    basis, K, f_grav = assemble(p, t, ElementTetP1(), NU)
 
     # nodal_dofs[c, i] = global dof of component c at mesh node i
     nd = basis.nodal_dofs

@@ -6,12 +6,13 @@ use corofem::{Material, Method, Settings, StaticSettings};
 use corofem_host_tests::{shared_mesh, CoreMesh};
 
 fn reference() -> serde_json::Value {
-    let text = std::fs::read_to_string(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/reference/cantilever_reference.json"
-    ))
-    .unwrap();
-    serde_json::from_str(&text).unwrap()
+    reference_file("cantilever_reference.json")
+}
+
+/// A JSON file of host-tests/reference.
+fn reference_file(name: &str) -> serde_json::Value {
+    let path = format!("{}/reference/{name}", env!("CARGO_MANIFEST_DIR"));
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
 }
 
 /// Static displacements of the beam clamped at x = 0 under gravity (m), E = 1e9,
@@ -132,15 +133,6 @@ fn corotational_sag_matches_the_reference_fem_and_beam_theory() {
     assert!(rel < 0.0 && rel > -0.06, "{rel}");
 }
 
-fn locking_reference() -> serde_json::Value {
-    let text = std::fs::read_to_string(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/reference/locking_reference.json"
-    ))
-    .unwrap();
-    serde_json::from_str(&text).unwrap()
-}
-
 /// Locking: towards ν = 1/2, linear tetrahedra grow too stiff. corofem's
 /// linear element reproduces the linear (P1) FEM's static sag at every ν, so
 /// the stiffening is the element's, not the solver's; the default method's
@@ -150,7 +142,7 @@ fn locking_reference() -> serde_json::Value {
 #[test]
 #[cfg_attr(not(shared_meshes), ignore = "needs ../shared/meshes")]
 fn nearly_incompressible_sag_is_the_linear_elements_and_locks() {
-    let r = locking_reference();
+    let r = reference_file("locking_reference.json");
     let converged = |nu: &str| {
         r["meshes"]["beam_10x2x2_h025_t6"][nu]["p2_tip_uz_mean"]
             .as_f64()
