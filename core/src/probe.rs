@@ -22,9 +22,9 @@
 //! tangent plane leaves it outside the curved surface by about `s² / 2r`,
 //! and it is moved back along the normal, so that the next step finds it
 //! touching and holds it again (a pressed node never goes free for a step,
-//! which would let the body drive it deep into the probe). No penalty spring: the
-//! step stays stable at any time step, and a stiff body does not need a
-//! small one.
+//! which would let the body drive it deep into the probe). No penalty
+//! spring: the step stays stable at any time step, and a stiff body does
+//! not need a small one.
 //!
 //! **Fast tools are swept.** The plane of a node comes from where the probe
 //! first touches it during the step, not from where it ends: each point of
@@ -216,9 +216,14 @@ impl Probe {
     /// ([`Probe::position`], [`Probe::axis`]): negative inside (m).
     #[must_use]
     pub fn distance(&self, x: Vec3) -> f32 {
-        let p = self.nearest(self.position, self.axis, x);
-        let a = sub(x, p);
+        let a = self.axis_offset(x);
         sqrt(dot(a, a)) - self.radius
+    }
+
+    /// `x` less the point of the axis nearest to it, at the probe's pose.
+    #[inline(always)]
+    fn axis_offset(&self, x: Vec3) -> Vec3 {
+        sub(x, self.nearest(self.position, self.axis, x))
     }
 
     /// The point of the segment at `c` along `e` nearest to `x`.
@@ -325,7 +330,7 @@ impl Probe {
     /// inside the probe there: the supporting plane at the nearest point,
     /// moving with the probe's motion over the step.
     pub(crate) fn inside(&self, x: Vec3) -> Option<Contact> {
-        let a1 = sub(x, self.nearest(self.position, self.axis, x));
+        let a1 = self.axis_offset(x);
         if !(dot(a1, a1) < self.radius * self.radius) {
             return None;
         }
@@ -345,7 +350,7 @@ impl Probe {
     /// outside the next step's contact plane too. (The step moves a node
     /// whose contact pushes back onto the surface by this vector.)
     pub(crate) fn outside(&self, x: Vec3) -> Option<Vec3> {
-        let a = sub(x, self.nearest(self.position, self.axis, x));
+        let a = self.axis_offset(x);
         let d = sqrt(dot(a, a));
         (d > self.radius).then(|| scale(a, (d - self.radius) / d))
     }
