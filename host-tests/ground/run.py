@@ -115,7 +115,9 @@ def meshes():
     return {k: v for k, v in have.items() if v[0] is not None}
 
 
-# name: mesh, E (Pa), ν, dt (s), seconds, drop height (m), velocity, spin
+# name: mesh, E (Pa), ν, dt (s), seconds, drop height (m), velocity, spin,
+# and the axis that is up (the meshes have y up; z up lays the bunny on its
+# side)
 CASES = [
     ("rest, 1 ms", "bunny_31k", 5e4, 0.3, 1e-3, 1.5, None, None, None),
     ("rest, 5 ms", "bunny_31k", 5e4, 0.3, 5e-3, 1.5, None, None, None),
@@ -126,6 +128,9 @@ CASES = [
     ("drop, spin, 2 ms", "liver_sliver", 2e4, 0.45, 2e-3, 2.0, 0.3, [0.0, -2.0, 0.0], [0.0, 0.0, 20.0]),
     ("drop, stiff, 10 ms", "bunny_3k", 1e8, 0.49, 1e-2, 2.0, 0.3, None, None),
     ("drop, stiff, 10 ms", "bunny_sliver", 1e8, 0.49, 1e-2, 2.0, 0.3, None, None),
+    ("drop on its side, stiff, 10 ms", "bunny_3k", 1e8, 0.49, 1e-2, 2.0, 0.3, None, None, 2),
+    ("drop on its side, stiff, 10 ms", "bunny_sliver", 1e8, 0.49, 1e-2, 2.0, 0.3, None, None, 2),
+    ("drop, spin, stiff, 10 ms", "bunny_3k", 1e8, 0.49, 1e-2, 2.0, 0.3, [0.0, -2.0, 0.0], [3.0, 0.0, 20.0]),
     ("drop, soft, 5 ms", "bunny_3k", 5e3, 0.49, 5e-3, 3.0, 0.3, None, None),
     ("drop, soft, 5 ms", "bunny_31k", 5e3, 0.49, 5e-3, 3.0, 0.3, None, None),
     ("drop, 50 ms", "bunny_3k", 1e5, 0.3, 5e-2, 4.0, 0.3, None, None),
@@ -149,7 +154,9 @@ def main():
     print()
     print("| case | mesh (tets) | finished | inverted at the end / most | largest elastic / start energy (J) | ms per step |")
     print("|---|---|---|---|---|---|")
-    for name, mesh, young, nu, dt, seconds, height, vel, spin in CASES:
+    for name, mesh, young, nu, dt, seconds, height, vel, spin, *up in CASES:
+        up = up[0] if up else 1
+        normal = [1.0 if k == up else 0.0 for k in range(3)]
         if a.cases and name not in a.cases and mesh not in a.cases:
             continue
         if mesh not in have:
@@ -157,7 +164,7 @@ def main():
             continue
         path, scale = have[mesh]
         nodes, tets = read_tetmesh(path)
-        ymin = scale * min(p[1] for p in nodes)
+        ymin = scale * min(p[up] for p in nodes)
         offset = ymin - (height or 0.0)
         solver = [f"dt = {dt}", f"steps = {round(seconds / dt)}"]
         if a.method:
@@ -166,8 +173,8 @@ def main():
         text = (f'[mesh]\nfile = "{path}"\nscale = {scale}\n'
                 f"[material]\nyoung = {young}\npoisson = {nu}\ndensity = 1000.0\n"
                 "[solver]\n" + "\n".join(solver) + "\n"
-                f"[world]\ngravity = [0.0, -9.81, 0.0]\n"
-                f"ground = {{ normal = [0.0, 1.0, 0.0], offset = {offset} }}\n")
+                f"[world]\ngravity = {[-9.81 if k == up else 0.0 for k in range(3)]}\n"
+                f"ground = {{ normal = {normal}, offset = {offset} }}\n")
         if vel or spin:
             text += f"[initial]\nvelocity = {vel or [0.0] * 3}\nangular_velocity = {spin or [0.0] * 3}\n"
         text += f"[output]\nevery = {max(1, round(0.01 / dt))}\n"
@@ -183,7 +190,7 @@ def main():
         j = json.loads(out.read_text())
         h = j["history"]
         # Energy at the start: kinetic plus potential above the ground.
-        start = h[0]["kinetic_energy"] + potential(scale, tets, nodes, offset)
+        start = h[0]["kinetic_energy"] + potential(scale, tets, nodes, offset, up)
         max_el = max(x["elastic_energy"] for x in h)
         max_inv = max(x["inverted"] for x in h)
         print(f"| {name} | {mesh} ({len(tets)}) | yes | {j['final']['inverted']} / {max_inv} | "
@@ -213,14 +220,15 @@ def quality(name, nodes, tets):
             f"angle {smallest:.2f}°, volumes spanning {max(volumes) / min(volumes):.2g}×")
 
 
-def potential(scale, tets, nodes, offset):
-    """m g (y_c − offset) of the mesh at rest, density 1000 kg/m³."""
+def potential(scale, tets, nodes, offset, up):
+    """m g (h_c − offset) of the mesh at rest, its centre's height h_c along
+    the axis `up`, density 1000 kg/m³."""
     m_total, my = 0.0, 0.0
     for e in tets:
         p = [[scale * c for c in nodes[i]] for i in e]
         m = 1000.0 * abs(six_volume(p)) / 6.0
         m_total += m
-        my += m * sum(q[1] for q in p) / 4.0
+        my += m * sum(q[up] for q in p) / 4.0
     return 9.81 * (my - m_total * offset)
 
 

@@ -287,9 +287,10 @@ fn single_tetrahedron_pushed_flat_and_through_itself_recovers() {
 }
 
 /// Bodies dropped on the ground, or set down on it, with the default
-/// method and solver (5 CG iterations, no damping): the
-/// stiff, nearly incompressible drop with a long step, on its feet and on
-/// its side (where it lands on one point and turns), the soft one, the
+/// method and solver (5 CG iterations, on its side the default 4, no
+/// damping): the stiff, nearly incompressible drop with a long step, on
+/// its feet and on its side (where it lands on one point and turns), the
+/// soft one, the
 /// 50 ms step and the spinning drop land whole and end with no inverted
 /// element; the elastic energy never exceeds the energy the body started
 /// with (kinetic, plus potential above the ground); the one set down at
@@ -354,11 +355,14 @@ fn bodies_dropped_on_the_ground_land_whole_with_the_default_settings() {
         scene.set_velocities(&v).unwrap();
         let start =
             scene.kinetic_energy() as f64 + mass * 9.81 * (c[up] - (lowest - height) as f64);
-        let mut max_elastic = 0.0f64;
+        let (mut max_elastic, mut late_elastic) = (0.0f64, 0.0f64);
         let steps = (seconds / dt).round() as usize;
-        for _ in 0..steps {
+        for k in 0..steps {
             let stats = scene.step().unwrap();
             max_elastic = max_elastic.max(stats.elastic_energy as f64);
+            if 3 * k >= steps {
+                late_elastic = late_elastic.max(stats.elastic_energy as f64);
+            }
         }
         assert_finite(&scene);
         let (ke, inverted, elastic) = (
@@ -367,9 +371,9 @@ fn bodies_dropped_on_the_ground_land_whole_with_the_default_settings() {
             scene.elastic_energy() as f64,
         );
         eprintln!(
-            "{name}: energy at the start {start:.3e} J, largest elastic {max_elastic:.3e} J; at the end: {inverted} inverted, elastic {elastic:.3e} J, kinetic {ke:.3e} J"
+            "{name}: energy at the start {start:.3e} J, largest elastic {max_elastic:.3e} J, over the last two thirds {late_elastic:.3e} J; at the end: {inverted} inverted, elastic {elastic:.3e} J, kinetic {ke:.3e} J"
         );
-        (start, max_elastic, inverted, elastic, ke)
+        (start, max_elastic, inverted, elastic, ke, late_elastic)
     };
     let drops: [Case; 5] = [
         ("stiff, dt 10 ms", 1e8, 0.49, 1e-2, 1.0, 0.3, 0.0, 0.0, 5, 1),
@@ -382,7 +386,7 @@ fn bodies_dropped_on_the_ground_land_whole_with_the_default_settings() {
             0.3,
             0.0,
             0.0,
-            5,
+            4,
             2,
         ),
         ("soft, dt 5 ms", 5e3, 0.49, 5e-3, 2.0, 0.3, 0.0, 0.0, 5, 1),
@@ -401,11 +405,11 @@ fn bodies_dropped_on_the_ground_land_whole_with_the_default_settings() {
         ),
     ];
     for case in &drops {
-        let (start, max_elastic, inverted, _, ke) = run(case);
+        let (start, max_elastic, inverted, _, ke, late) = run(case);
         assert_eq!(inverted, 0, "{}", case.0);
         // The ground does no work on the body and gravity's is in `start`:
         // the body can hold no more than it started with (measured: at most
-        // 9 % of it, the stiff bunny on its side; landed node by node, the
+        // 7 % of it, the stiff bunny on its side; landed node by node, the
         // stiff bunny held 1.6e7 times it, and on its side, moved along its
         // tangents while it turned, 4.8 times with 4 CG iterations).
         assert!(max_elastic < start, "{}: {max_elastic} J", case.0);
@@ -415,13 +419,19 @@ fn bodies_dropped_on_the_ground_land_whole_with_the_default_settings() {
         // the ground is frictionless.
         if case.7 == 0.0 {
             assert!(ke < 1e-3 * start, "{}: {ke} J", case.0);
+            // Down and resting (the last two thirds of the run), a body
+            // holds its sag and whatever its contacts' coming and going
+            // leaves: at most a tenth of the fall's energy (measured: at
+            // most 1.8 %, the soft bunny's sag; the stiff bunny on its
+            // side, pushed out of the ground node by node, held 53 %).
+            assert!(late < 0.1 * start, "{}: {late} J once down", case.0);
         }
     }
     // Set down on the ground: the sag's elastic energy after 2 s against
     // the same run with 200 CG iterations.
     let rest = ("resting", 5e4, 0.3, 5e-3, 2.0, 0.0, 0.0, 0.0, 5, 1);
-    let (_, _, inverted, elastic, _) = run(&rest);
-    let (_, _, _, reference, _) = run(&(
+    let (_, _, inverted, elastic, _, _) = run(&rest);
+    let (_, _, _, reference, _, _) = run(&(
         "resting, 200 CG",
         5e4,
         0.3,
