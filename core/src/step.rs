@@ -1640,13 +1640,15 @@ impl PlaneFit {
 /// impulse). A held node below the plane at `dist < 0` is prescribed the
 /// normal velocity `−dist/h`, which ends the step on the plane; the solve
 /// moves its neighbours along, so the elements it shares do not take the
-/// depth as strain. That velocity only corrects a position: kept, it would
-/// lift the node off the plane again, a bounce as high as the depth, and a
-/// body resting on the ground would never come to rest. By linearity the
-/// step's velocity change (`dv`) is the one without the push plus the
-/// push's own response `w`, the solve of `A w = 0` (filtered) with the
-/// pushed normals prescribed, which this solves with the step's budget and
-/// preconditioner. The velocity keeps `dv − w`, and the positions `dv`.
+/// depth as strain. With a [`Lift`], the held nodes are prescribed the
+/// lift's normal velocity where it exceeds their own push, and that part of
+/// their velocity is a push too. That velocity only corrects a position:
+/// kept, it would lift the node off the plane again, a bounce as high as
+/// the depth, and a body resting on the ground would never come to rest. By
+/// linearity the step's velocity change (`dv`) is the one without the push
+/// plus the push's own response `w`, the solve of `A w = 0` (filtered) with
+/// the pushed normals prescribed, which this solves with the step's budget
+/// and preconditioner. The velocity keeps `dv − w`, and the positions `dv`.
 /// Keeps `dv` and the step's contact impulses `n·r` (in `NodeWork`), and
 /// leaves the new velocity change in `x`. It costs a second solve, in the
 /// steps that push nodes out: those in which nodes landed the step before.

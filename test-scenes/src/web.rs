@@ -1204,6 +1204,33 @@ pub fn hash_script() -> Result<u64, String> {
     app.release();
     app.step_frame(40);
     mix(app.scene().state_hash());
+
+    // 4. A stiff blob floats free with a long step, thrown spinning by the
+    //    tool: it turns by a rigid rotation (the core's `free-rotation`),
+    //    whose bits must agree too.
+    let mut app = App::new(
+        &Body::Blob.mesh(),
+        Support::Free,
+        Params {
+            young: 1.0e9,
+            dt: 0.01,
+            gravity: false,
+            ..Params::DEFAULT
+        },
+        false,
+    )?;
+    let hit = app
+        .pick([0.05, -2.0, 0.62], [0.0, 1.0, 0.0])
+        .ok_or("the ray missed the blob")?;
+    app.grab(hit.point);
+    for j in 1..=5 {
+        let s = j as f32 * 0.05;
+        app.set_target([hit.point[0] + s, hit.point[1], hit.point[2]]);
+        app.step_frame(1);
+    }
+    app.release();
+    app.step_frame(30);
+    mix(app.scene().state_hash());
     Ok(h)
 }
 

