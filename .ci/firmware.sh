@@ -10,8 +10,8 @@
 #     the Rust stiffness product instead of the assembly one (fpu-product),
 #     with libm's software square root instead of vsqrt as well, and tuned
 #     for the Cortex-M4 with the assembly's VMUL+VADD form
-#     (_fpu-product-vmul), and with the core's features two-level and
-#     nalgebra compiled in but unused: same hash, and with the firmware's
+#     (_fpu-product-vmul), and with the core's features two-level,
+#     nalgebra and free-rotation compiled in but unused: same hash, and with the firmware's
 #     feature nalgebra, which calls the core's nalgebra twins of the probe
 #     and the coupling (so the proof covers them): same hash. Every size is also built
 #     running the two-level preconditioner (the firmware's feature
@@ -225,8 +225,8 @@ run_firmware "$REFERENCE" libm --no-default-features
 step "firmware tuned for the Cortex-M4 (-C target-cpu=cortex-m4 and _fpu-product-vmul: VMUL+VADD instead of VMLA) ($REFERENCE)"
 FW_RUSTFLAGS="-C target-cpu=cortex-m4" FW_TARGET_DIR="$CARGO_TARGET_DIR/firmware-cortex-m4" \
   run_firmware "$REFERENCE" cortex-m4 --features _fpu-product-vmul
-step "firmware with the core's features two-level and nalgebra compiled in, unused ($REFERENCE): same hash"
-run_firmware "$REFERENCE" features --features corofem/two-level,corofem/nalgebra
+step "firmware with the core's features two-level, nalgebra and free-rotation compiled in, unused ($REFERENCE): same hash"
+run_firmware "$REFERENCE" features --features corofem/two-level,corofem/nalgebra,corofem/free-rotation
 step "firmware calling the core's nalgebra twins of the probe and the coupling ($REFERENCE): linked panic-free, same hash"
 run_firmware "$REFERENCE" nalgebra --features nalgebra
 step "firmware running the two-level preconditioner (4 CG iterations, warm start), every size: the host's two-level hashes"
@@ -300,7 +300,7 @@ step "cost per scene size (Qr, 500 steps; 5 CG iterations, two-level: 4 and warm
 echo "(build: vsqrt = default (fpu-sqrt, fpu-product: the assembly product with VMLA),"
 echo " rust-prod = vsqrt and the Rust product, libm = software sqrt and the Rust product,"
 echo " cortex-m4 = -C target-cpu=cortex-m4 and _fpu-product-vmul (VMUL+VADD),"
-echo " features = vsqrt with the core's features two-level and nalgebra compiled in, unused;"
+echo " features = vsqrt with the core's features two-level, nalgebra and free-rotation compiled in, unused;"
 echo " two-level = vsqrt running the two-level preconditioner, 4 CG iterations with warm start;"
 echo " ground, ground-probe, ground-probe-friction = vsqrt with the firmware's features ground,"
 echo "   probe, probe + friction: the beam on the ground, a sphere probe pressing in, friction;"
