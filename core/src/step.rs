@@ -655,14 +655,19 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
     // its tangents (`turn`). (`Linear`'s elements are not invariant under
     // rotations: its tangent update is the one that leaves them unstrained.)
     #[cfg(feature = "free-rotation")]
-    if isolated
-        && s.method != crate::Method::Linear
-        && turn(nodes, work, h, |body: &Rigid| {
-            reach(body, elems_ro, n_elems, per_young, h)
-        })
-    {
+    if isolated && s.method != crate::Method::Linear {
+        // The body at the step's start, with its inertia: the
+        // preconditioner's when it has one (the nodes have not moved since).
+        #[cfg(feature = "two-level")]
+        let known = rigid.filter(|b| b.inertia.is_some());
+        #[cfg(not(feature = "two-level"))]
+        let known = None;
+        let body = known.or_else(|| Rigid::new(nodes, true));
+        let share = |body: &Rigid| reach(body, elems_ro, n_elems, per_young, h);
+        #[allow(unused_variables)] // only the ground reads it
+        let turned = turn(body, nodes, work, h, share);
         #[cfg(feature = "ground")]
-        if let Some(g) = ground {
+        if let (true, Some(g)) = (turned, ground) {
             below = nodes
                 .iter()
                 .zip(work.iter())
@@ -1290,6 +1295,31 @@ impl Rigid {
         (vel, omega)
     }
 
+    /// The velocity of the centre of mass of the field `f(node, work)` (a
+    /// momentum per node), and, with rotations, its angular momentum about
+    /// `c` less the round-off of `Σ m (p − c)`: `I ω` of [`Rigid::fit`],
+    /// whose loop this repeats (`fit` calling it measured 2 instructions
+    /// per tet-step more on the Cortex-M4F, in images without this feature).
+    #[cfg(feature = "free-rotation")]
+    #[inline(always)]
+    fn momenta(
+        &self,
+        nodes: &[Node],
+        work: &[NodeWork],
+        f: impl Fn(&Node, &NodeWork) -> Vec3,
+    ) -> (Vec3, Vec3) {
+        let (mut lin, mut ang) = ([0.0f32; 3], [0.0f32; 3]);
+        for (n, w) in nodes.iter().zip(work.iter()) {
+            let fi = f(n, w);
+            lin = add(lin, fi);
+            if self.inertia.is_some() {
+                ang = add(ang, cross(sub(n.position(), self.c), fi));
+            }
+        }
+        let vel = scale(lin, self.inv_mass);
+        (vel, sub(ang, cross(self.first_moment, vel)))
+    }
+
     /// The motion `m` at node `n`.
     #[inline(always)]
     fn at(&self, n: &Node, m: Motion) -> Vec3 {
@@ -1686,7 +1716,10 @@ fn relax(
                 let x = n.position();
                 let (own, pushed) = match c.push(x) {
                     Some(dist) => (dist, 0.0),
-                    None => (c.distance(x), c.distance(x)),
+                    None => {
+                        let dist = c.distance(x);
+                        (dist, dist)
+                    }
                 };
                 let dist = lift.map_or(own, |l| l.depth(n, own, h));
                 let up = (pushed - dist) / h;
@@ -1747,8 +1780,7 @@ fn relax(
 /// side) are prescribed velocities that no rigid motion has: a truncated
 /// solve moves their neighbours only partly along, and a stiff body, or
 /// one with tiny elements, takes the difference as strain, whose energy
-/// the next steps set free (a stiff sliver bunny on its side gained
-/// 100 J so from a 2.7 J fall). The lift instead raises the body as a
+/// the next steps set free as motion. The lift instead raises the body as a
 /// whole; held nodes it raises beyond their own push leave the plane. A
 /// body that a pressure wave does not cross within the step answers a
 /// push locally, and keeps the pushes node by node: lifted as a whole, a
@@ -1993,9 +2025,9 @@ const TURN_ITERATIONS: u32 = 24;
 /// stretches it by `(h |ω|)²/2` each step. A body that moves as one over
 /// the step (`share`, the [`reach`] of a pressure wave, is 1) takes that
 /// stretch out again in the next step's solve: strain that no force asked
-/// for, whose energy a stiff body holds as long as it spins (a stiff,
-/// nearly incompressible bunny tumbling at 20 rad/s with `dt` 10 ms holds
-/// about a thousand times its kinetic energy). A body that a wave does not
+/// for, whose energy a stiff body holds as long as it spins (at 20 rad/s
+/// with `dt` 10 ms, 2 % a step: for a nearly incompressible body, far more
+/// than its kinetic energy). A body that a wave does not
 /// cross within a step (soft, or a short step) is left to the tangents:
 /// there the stretch is small, and over several steps its elastic forces
 /// bend its parts' paths as they should; a body without stiffness is a
@@ -2030,22 +2062,20 @@ const TURN_ITERATIONS: u32 = 24;
 /// the step keeps its tangent update's bits), nor when the body does not
 /// move as one, nor for a body without mass or whose inertia is singular.
 #[cfg(feature = "free-rotation")]
-fn turn(nodes: &[Node], work: &mut [NodeWork], h: f32, share: impl FnOnce(&Rigid) -> f32) -> bool {
-    let Some(body) = Rigid::new(nodes, true) else {
+fn turn(
+    body: Option<Rigid>,
+    nodes: &[Node],
+    work: &mut [NodeWork],
+    h: f32,
+    share: impl FnOnce(&Rigid) -> f32,
+) -> bool {
+    let Some(body) = body else {
         return false;
     };
     let Some(inertia) = body.inertia else {
         return false;
     };
-    // `L = Σ y × m v'`, less the round-off of `Σ m y`, as `fit` forms it.
-    let (mut lin, mut ang) = ([0.0f32; 3], [0.0f32; 3]);
-    for (n, w) in nodes.iter().zip(work.iter()) {
-        let p = scale(w.q, n.mass);
-        lin = add(lin, p);
-        ang = add(ang, cross(sub(n.position(), body.c), p));
-    }
-    let vc = scale(lin, body.inv_mass);
-    let l = sub(ang, cross(body.first_moment, vc));
+    let (vc, l) = body.momenta(nodes, work, |n, w| scale(w.q, n.mass));
     let Some(omega) = solve3(&inertia, l) else {
         return false;
     };

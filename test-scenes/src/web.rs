@@ -1182,20 +1182,11 @@ pub fn hash_script() -> Result<u64, String> {
 
     // 3. The blob floats free without gravity; pulled and let go with the rest
     //    B, it spins up (ghost torques) — whose bits must agree too.
-    let mut app = App::new(
-        &Body::Blob.mesh(),
-        Support::Free,
-        Params {
-            method: Method::QrRestB,
-            gravity: false,
-            ..Params::DEFAULT
-        },
-        false,
-    )?;
-    let hit = app
-        .pick([0.05, -2.0, 0.62], [0.0, 1.0, 0.0])
-        .ok_or("the ray missed the blob")?;
-    app.grab(hit.point);
+    let (mut app, hit) = grabbed_blob(Params {
+        method: Method::QrRestB,
+        gravity: false,
+        ..Params::DEFAULT
+    })?;
     for j in 0..20 {
         let s = j as f32 * 0.01;
         app.set_target([hit.point[0] + s, hit.point[1] - s, hit.point[2] + 0.5 * s]);
@@ -1208,21 +1199,12 @@ pub fn hash_script() -> Result<u64, String> {
     // 4. A stiff blob floats free with a long step, thrown spinning by the
     //    tool: it turns by a rigid rotation (the core's `free-rotation`),
     //    whose bits must agree too.
-    let mut app = App::new(
-        &Body::Blob.mesh(),
-        Support::Free,
-        Params {
-            young: 1.0e9,
-            dt: 0.01,
-            gravity: false,
-            ..Params::DEFAULT
-        },
-        false,
-    )?;
-    let hit = app
-        .pick([0.05, -2.0, 0.62], [0.0, 1.0, 0.0])
-        .ok_or("the ray missed the blob")?;
-    app.grab(hit.point);
+    let (mut app, hit) = grabbed_blob(Params {
+        young: 1.0e9,
+        dt: 0.01,
+        gravity: false,
+        ..Params::DEFAULT
+    })?;
     for j in 1..=5 {
         let s = j as f32 * 0.05;
         app.set_target([hit.point[0] + s, hit.point[1], hit.point[2]]);
@@ -1232,6 +1214,17 @@ pub fn hash_script() -> Result<u64, String> {
     app.step_frame(30);
     mix(app.scene().state_hash());
     Ok(h)
+}
+
+/// The blob floating free with `params`, grabbed by the tool where a ray
+/// along y meets it.
+fn grabbed_blob(params: Params) -> Result<(App, Hit), String> {
+    let mut app = App::new(&Body::Blob.mesh(), Support::Free, params, false)?;
+    let hit = app
+        .pick([0.05, -2.0, 0.62], [0.0, 1.0, 0.0])
+        .ok_or("the ray missed the blob")?;
+    app.grab(hit.point);
+    Ok((app, hit))
 }
 
 #[cfg(test)]
