@@ -30,8 +30,10 @@
 //! such term. Nodes that nothing holds see no difference (`S` returns them
 //! unchanged).
 
-use crate::math::{axpy, dot, scale, sqrt, Vec3};
-use crate::storage::NodeWork;
+use crate::guard::Correction;
+use crate::math::{add, axpy, dot, scale, sqrt, sub, Vec3};
+use crate::rigid::{Motion, Rigid};
+use crate::storage::{Node, NodeWork, FIXED};
 
 /// What a CG solve did.
 #[derive(Clone, Copy, Debug, Default)]
@@ -231,6 +233,148 @@ pub(crate) fn solve(
         overflow: !(rm.is_finite() && rz.is_finite()),
         certified,
     }
+}
+
+/// The energy certificate of a truncated solve. Linearised at the current
+/// state, a step that solves `A Δv = b − r` changes the kinetic plus elastic
+/// energy by (with `v' = v + Δv`, the tool's spring counted with `K`)
+///
+/// ```text
+/// h v'ᵀf_ext − v'ᵀr − ½ ΔvᵀMΔv − (h²/2 + h α_K) v'ᵀKv' − h α_M v'ᵀMv'
+/// ```
+///
+/// (expand `v'ᵀ M Δv` with `M Δv = b − r − h α_M M Δv − h (α_K + h) K Δv`
+/// and add `E(x + h v') − E(x) ≈ −h f_elᵀv' + ½ h² v'ᵀKv'`). The exact step
+/// has `r = 0` and only dissipates; a truncated one is accepted when its
+/// residual injects no more than the dissipation the step has anyway:
+/// `−v'ᵀ S r ≤ ½ ΔvᵀMΔv + h α_M v'ᵀMv' + ε KE`. The `K` terms are left out
+/// (they need another product; leaving out a dissipation only makes the test
+/// stricter). `S` filters the held ground normals (the ground's force does
+/// no work on a node it holds still); fixed nodes do not move.
+/// `ε = f32::EPSILON`: the kinetic energy `KE`, a sum of f32 terms, is not
+/// known more finely, so a finer test would reject round-off.
+#[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
+pub(crate) fn certified(
+    nodes: &[Node],
+    work: &[NodeWork],
+    project: impl Fn(usize, Vec3) -> Vec3,
+    h_alpha_m: f32,
+    correction: Option<&Correction>,
+) -> bool {
+    let (mut inject, mut dissipate, mut kinetic) = (0.0f32, 0.0f32, 0.0f32);
+    for (i, (n, w)) in nodes.iter().zip(work.iter()).enumerate() {
+        if n.flags & FIXED != 0 {
+            continue;
+        }
+        let v1 = add(n.v, w.x);
+        // The step starts from the guard's velocity `v + δ`: `Δv = x − δ`.
+        let (v0, dv) = match correction {
+            Some(c) => {
+                let delta = c.delta(n);
+                (add(n.v, delta), sub(w.x, delta))
+            }
+            None => (n.v, w.x),
+        };
+        inject -= dot(v1, project(i, w.r));
+        dissipate += n.mass * (0.5 * dot(dv, dv) + h_alpha_m * dot(v1, v1));
+        kinetic += n.mass * dot(v0, v0);
+    }
+    inject <= dissipate + f32::EPSILON * 0.5 * kinetic
+}
+
+/// The Galerkin step that ends a solve without an energy certificate: the
+/// solution is replaced by the best one (least energy norm of the error) in
+/// `x₀ + span{P Δv, P v}`, where `P` takes the part that CG may change (the
+/// filter `S` of held normals and fixed nodes, or for an isolated body, the
+/// part without the rigid motion of the same momentum), and `x₀` keeps the
+/// rest (held normals; for an isolated body, the rigid part, which the
+/// preconditioners keep exact). The new residual is then orthogonal to both
+/// directions (and, for an isolated body, still free of net force and
+/// torque: `A` maps the `M`-orthogonal directions to forces without them),
+/// so `v'ᵀ S r = 0`: the truncation adds no energy.
+///
+/// The second direction is made `A`-orthogonal to the first and multiplied
+/// by `A` again rather than updated: where a stiff step all but stops the
+/// deformation, `A P v` and `A P Δv` are nearly parallel and their
+/// difference cancels to noise in f32. Three products with `A` in all.
+#[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
+pub(crate) fn galerkin(
+    nodes: &[Node],
+    work: &mut [NodeWork],
+    isolated: bool,
+    rotations: bool,
+    project: impl Fn(usize, Vec3) -> Vec3,
+    mut apply: impl FnMut(&mut [NodeWork]) -> f32,
+    start: impl Fn(&Node) -> Vec3,
+) {
+    let rigid = if isolated {
+        Rigid::new(nodes, rotations)
+    } else {
+        None
+    };
+    let none = ([0.0; 3], [0.0; 3]);
+    let (fit_x, fit_v) = match rigid {
+        Some(body) => (
+            body.fit(nodes, work, |n, w| scale(w.x, n.mass)),
+            body.fit(nodes, work, |n, _| scale(start(n), n.mass)),
+        ),
+        None => (none, none),
+    };
+    // `P a` at node `i`, with the rigid motion `fit` of the field `a`.
+    let part = |i: usize, n: &Node, a: Vec3, fit: Motion| -> Vec3 {
+        if n.flags & FIXED != 0 {
+            return [0.0; 3];
+        }
+        match rigid {
+            Some(body) => body.less_rigid(n, a, fit),
+            None => project(i, a),
+        }
+    };
+    // Along e = P Δv: Δv += a e, with a = eᵀr / eᵀAe. Since P is a
+    // projection, P Δv is then (1 + a) e, with A-norm² (1 + a)² eᵀAe.
+    for (i, (n, w)) in nodes.iter().zip(work.iter_mut()).enumerate() {
+        w.d = part(i, n, w.x, fit_x);
+        w.q = [0.0; 3];
+    }
+    let eae = apply(work);
+    let e_norm = descend(work, eae).map_or(0.0, |a| (1.0 + a) * (1.0 + a) * eae);
+    // Along f = P v, made A-orthogonal to e = P Δv.
+    for (i, (n, w)) in nodes.iter().zip(work.iter_mut()).enumerate() {
+        w.d = part(i, n, start(n), fit_v);
+        w.q = [0.0; 3];
+    }
+    let mut faf = apply(work);
+    if e_norm > 0.0 && e_norm.is_finite() && faf.is_finite() {
+        let mut eaf = 0.0f32;
+        for (i, (n, w)) in nodes.iter().zip(work.iter()).enumerate() {
+            eaf += dot(part(i, n, w.x, fit_x), w.q);
+        }
+        let c = eaf / e_norm;
+        if c != 0.0 && c.is_finite() {
+            for (i, (n, w)) in nodes.iter().zip(work.iter_mut()).enumerate() {
+                w.d = axpy(w.d, -c, part(i, n, w.x, fit_x));
+                w.q = [0.0; 3];
+            }
+            faf = apply(work);
+        }
+    }
+    descend(work, faf);
+}
+
+/// The exact line search along `d` (with `q = A d`, `dad = dᵀAd`):
+/// `x += a d`, `r −= a q` with `a = dᵀr / dᵀAd`, after which `dᵀr = 0`.
+/// Returns `a`, or `None` (nothing changed) for a direction without
+/// positive, finite curvature.
+fn descend(work: &mut [NodeWork], dad: f32) -> Option<f32> {
+    if !(dad > 0.0 && dad.is_finite()) {
+        return None;
+    }
+    let a = work.iter().fold(0.0f32, |s, w| s + dot(w.d, w.r)) / dad;
+    for w in work.iter_mut() {
+        w.x = axpy(w.x, a, w.d);
+        w.r = axpy(w.r, -a, w.q);
+    }
+    Some(a)
 }
 
 #[cfg(test)]

@@ -121,8 +121,10 @@ extern crate std;
 
 mod backend;
 mod cg;
+mod contact;
 mod element;
 mod error;
+mod guard;
 mod lanes;
 mod material;
 mod math;
@@ -130,10 +132,16 @@ mod mesh_gen;
 mod pass;
 #[cfg(feature = "two-level")]
 mod precond;
+mod rigid;
 mod scene;
 mod settings;
+#[cfg(feature = "two-level")]
+mod slots;
+mod state;
 mod step;
 mod storage;
+#[cfg(feature = "free-rotation")]
+mod turn;
 
 #[cfg(feature = "coupling")]
 mod coupling;
@@ -146,12 +154,8 @@ mod diagnostics;
     target_abi = "eabihf"
 ))]
 mod fpu_product;
-#[cfg(feature = "ground")]
-mod ground;
 #[cfg(feature = "nalgebra")]
 pub mod na;
-#[cfg(feature = "probe")]
-mod probe;
 #[cfg(feature = "statics")]
 mod statics;
 #[cfg(feature = "surface")]
@@ -165,13 +169,15 @@ pub use element::{element_blocks, ElementBlock, Method};
 /// run in vector lanes (x86, x86_64, AArch64, wasm32 with `simd128`), 1
 /// elsewhere (e.g. a Cortex-M4F).
 pub const ELEMENTS_PER_BLOCK: usize = lanes::LANES;
+#[cfg(feature = "friction")]
+pub use contact::ground::Friction;
+#[cfg(feature = "ground")]
+pub use contact::ground::Plane;
+#[cfg(feature = "probe")]
+pub use contact::probe::{Probe, MAX_PROBES};
 #[cfg(feature = "coupling")]
 pub use coupling::Coupling;
 pub use error::{Error, Parameter, StepError};
-#[cfg(feature = "friction")]
-pub use ground::Friction;
-#[cfg(feature = "ground")]
-pub use ground::Plane;
 pub use material::Material;
 pub use math::Vec3;
 pub use mesh_gen::BoxMesh;
@@ -180,8 +186,6 @@ pub use precond::{
     aggregates_for, coarse_blocks_for, Aggregate, CoarseBlock, NodeBlock, MAX_AGGREGATES,
     NODES_PER_AGGREGATE,
 };
-#[cfg(feature = "probe")]
-pub use probe::{Probe, MAX_PROBES};
 #[cfg(feature = "alloc")]
 pub use scene::VecScene;
 pub use scene::{BuildOptions, Scene, StaticScene};

@@ -46,186 +46,88 @@ use crate::element::rotation::{closest_rotation, IDENTITY};
 use crate::element::ElementBlock;
 use crate::math::{add, cross, dot, mat_vec, sqrt, sub, Mat3, Vec3};
 use crate::pass::each_element;
+pub use crate::slots::{
+    aggregates_for, coarse_blocks_for, Aggregate, CoarseBlock, NodeBlock, MAX_AGGREGATES,
+    NODES_PER_AGGREGATE,
+};
+pub(crate) use crate::slots::{stride, Parts, CHUNK, NONE};
 use crate::storage::{Node, NodeWork, FIXED};
-
-/// What [`NodeBlock::aggregate`] holds for a node in no aggregate (fixed).
-const NONE: u32 = u32::MAX;
-
-/// A node's slot of preconditioner data (32 bytes): opaque, named only to
-/// provide memory.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct NodeBlock {
-    /// The inverse of the node's 3×3 block of `A`, `[xx, yy, zz, xy, yz, zx]`
-    /// (zero on fixed nodes).
-    pub(crate) inv: [f32; 6],
-    /// The node's aggregate, or `NONE`.
-    pub(crate) aggregate: u32,
-    /// Scratch of the aggregation: a node index.
-    pub(crate) order: u32,
-}
-
-impl NodeBlock {
-    /// An unused slot: all zero bits, so that a storage of them in a
-    /// `static` lands in `.bss` and costs no flash. (Its aggregate reads 0
-    /// until the aggregation assigns every slot; nothing reads it before.)
-    pub const EMPTY: Self = Self {
-        inv: [0.0; 6],
-        aggregate: 0,
-        order: 0,
-    };
-}
-
-impl Default for NodeBlock {
-    fn default() -> Self {
-        Self::EMPTY
-    }
-}
-
-/// An aggregate's slot (176 bytes): opaque, named only to provide memory.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Aggregate {
-    /// Mass-weighted rest centroid `c₀` (m).
-    pub(crate) c0: Vec3,
-    /// Rest second moment `Σ m p pᵀ` (kg m²).
-    pub(crate) s0: Mat3,
-    /// Current rotation `R_a` (rows), and its quaternion `q_step`.
-    pub(crate) rot: Mat3,
-    pub(crate) q_step: [f32; 4],
-    /// The rotation of the last step that was applied (the warm start of
-    /// the next step's search): a refused step leaves it as it was, so that
-    /// what follows does not depend on it.
-    pub(crate) q: [f32; 4],
-    /// `Σ m u pᵀ`, then `S₀ + Σ m u pᵀ = Σ m (x − c) pᵀ`.
-    pub(crate) apq: Mat3,
-    /// Coarse vector `(t, ω)`.
-    pub(crate) y: [f32; 6],
-}
-
-impl Aggregate {
-    /// An unused slot: all zero bits, so that a storage of them in a
-    /// `static` lands in `.bss` and costs no flash. The aggregation starts
-    /// every aggregate it uses from a slot that is not turned.
-    pub const EMPTY: Self = Self {
-        c0: [0.0; 3],
-        s0: [[0.0; 3]; 3],
-        rot: [[0.0; 3]; 3],
-        q_step: [0.0; 4],
-        q: [0.0; 4],
-        apq: [[0.0; 3]; 3],
-        y: [0.0; 6],
-    };
-
-    /// A new aggregate: not turned.
-    const FRESH: Self = Self {
-        rot: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
-        q_step: IDENTITY,
-        q: IDENTITY,
-        ..Self::EMPTY
-    };
-}
-
-impl Default for Aggregate {
-    fn default() -> Self {
-        Self::EMPTY
-    }
-}
-
-/// Eight consecutive entries of a row of the coarse solve's matrix, or of
-/// its vector (32 bytes): opaque, named only to provide memory. A scene
-/// with `n` aggregates uses [`coarse_blocks_for`]`(n)` of them.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct CoarseBlock {
-    pub(crate) m: [f32; CHUNK],
-}
-
-impl CoarseBlock {
-    /// An unused slot.
-    pub const EMPTY: Self = Self { m: [0.0; CHUNK] };
-}
-
-impl Default for CoarseBlock {
-    fn default() -> Self {
-        Self::EMPTY
-    }
-}
-
-/// Entries per [`CoarseBlock`]: the lanes the coarse solve works on at once.
-const CHUNK: usize = 8;
 
 /// Rounds of seeding and growth (`grow`): each round moves every seed to
 /// the node nearest its aggregate's centroid (Lloyd's algorithm, on the
 /// mesh), which evens out the aggregates the first round leaves.
 const LLOYD_ROUNDS: usize = 3;
 
-/// Free nodes per aggregate that [`aggregates_for`] aims at on small
-/// bodies: fewer nodes per aggregate keep reducing the error of a few
-/// iterations on the report's scenes.
-pub const NODES_PER_AGGREGATE: usize = 16;
+/// A new aggregate: not turned.
+const FRESH: Aggregate = Aggregate {
+    rot: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+    q_step: IDENTITY,
+    q: IDENTITY,
+    ..Aggregate::EMPTY
+};
 
-/// The aggregates `VecStorage` has room for: the coarse solve costs
-/// `(6 n)²` multiply-adds per CG iteration for `n` aggregates.
-pub const MAX_AGGREGATES: usize = 64;
-
-/// The number of aggregates the two-level preconditioner uses for a body of
-/// `free_nodes` free nodes with room for `capacity`: one per
-/// [`NODES_PER_AGGREGATE`] nodes, but at most `√(4 n / 3) + 1`, at least
-/// one, at most `capacity`. The coarse solve costs `(6 a)²` per iteration
-/// for `a` aggregates and the rest of an iteration `O(n)`: with `a ~ √n`,
-/// the coarse solve's share of an iteration stays the same as bodies grow.
-#[must_use]
-pub const fn aggregates_for(free_nodes: usize, capacity: usize) -> usize {
-    let n = free_nodes.div_ceil(NODES_PER_AGGREGATE);
-    let root = (free_nodes.saturating_mul(4) / 3).isqrt() + 1;
-    let n = if n < root { n } else { root };
-    let n = if n == 0 { 1 } else { n };
-    if n < capacity {
-        n
+/// Makes the preconditioner's data current for this step and returns the
+/// preconditioner to use: the node blocks of `A`, the aggregates' rotations,
+/// and, after anything that changed `A`'s rest value, the aggregates and
+/// the coarse factor. `Mass` when the storage has no room for the one the
+/// settings ask for (`Scene::set_settings` refuses that, so only a scene
+/// whose defaults were never written reaches it).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn prepare(
+    hdr: &mut crate::state::Header,
+    per_young: [f32; 2],
+    nodes: &[Node],
+    elems: &[crate::element::ElementBlock],
+    n_elems: usize,
+    pre: &mut Parts<'_>,
+    mass_coef: f32,
+    k_coef: f32,
+) -> crate::Preconditioner {
+    let mut kind = hdr.settings.preconditioner;
+    if kind == crate::Preconditioner::Mass || pre.blocks.len() != nodes.len() {
+        return crate::Preconditioner::Mass;
+    }
+    let spring = hdr.spring();
+    let h = hdr.settings.dt;
+    let two_level = kind == crate::Preconditioner::TwoLevel;
+    // The aggregation first: it moves the node slots around.
+    if two_level && !hdr.coarse_ready {
+        hdr.n_aggs = aggregate(per_young, elems, n_elems, nodes, pre.blocks, pre.aggs);
+    }
+    // The aggregates in use (none for block-Jacobi): what `apply`
+    // works with.
+    let n = pre.keep(if two_level { hdr.n_aggs } else { 0 });
+    if n > 0 {
+        rotations(nodes, pre.blocks, pre.aggs);
     } else {
-        capacity
+        kind = crate::Preconditioner::BlockJacobi;
     }
-}
-
-/// The [`CoarseBlock`]s the coarse solve of `aggs` aggregates takes: a
-/// `6 aggs × 6 aggs` matrix and one vector of `6 aggs` entries, each row
-/// padded to whole blocks of eight entries.
-#[must_use]
-pub const fn coarse_blocks_for(aggs: usize) -> usize {
-    let dim = aggs.saturating_mul(6);
-    dim.saturating_add(1).saturating_mul(stride(dim))
-}
-
-/// The blocks a row of the coarse matrix of dimension `dim` takes.
-#[inline(always)]
-const fn stride(dim: usize) -> usize {
-    dim.div_ceil(CHUNK)
-}
-
-/// The slices the preconditioners work on.
-pub(crate) struct Parts<'a> {
-    pub(crate) blocks: &'a mut [NodeBlock],
-    pub(crate) aggs: &'a mut [Aggregate],
-    pub(crate) coarse: &'a mut [CoarseBlock],
-}
-
-impl Parts<'_> {
-    /// Narrows `aggs` and `coarse` to the first `n` aggregates and their
-    /// factor's blocks; returns `n`, or 0 (and empty slices: block-Jacobi)
-    /// when the storage has not that many.
-    pub(crate) fn keep(&mut self, n: usize) -> usize {
-        let blocks = coarse_blocks_for(n);
-        let n = if n <= self.aggs.len() && blocks <= self.coarse.len() {
-            n
-        } else {
-            0
-        };
-        self.aggs = core::mem::take(&mut self.aggs)
-            .get_mut(..n)
-            .unwrap_or_default();
-        self.coarse = core::mem::take(&mut self.coarse)
-            .get_mut(..coarse_blocks_for(n))
-            .unwrap_or_default();
-        n
+    // Block-Jacobi's node blocks follow the state every step (with the
+    // tool's spring); the two-level ones are prepared with the factor, in
+    // their aggregate's frame, and turn with it.
+    if n == 0 || !hdr.coarse_ready {
+        node_blocks(
+            per_young,
+            elems,
+            n_elems,
+            nodes,
+            pre.blocks,
+            mass_coef,
+            k_coef,
+            |node| {
+                if n == 0 && spring.holds(node) {
+                    h * h * spring.k()
+                } else {
+                    0.0
+                }
+            },
+        );
     }
+    if n > 0 && !hdr.coarse_ready {
+        factor(per_young, elems, n_elems, nodes, pre, mass_coef, k_coef);
+    }
+    hdr.coarse_ready = true;
+    kind
 }
 
 /// `[p]×`, the matrix of `v ↦ p × v`.
@@ -614,7 +516,7 @@ pub(crate) fn aggregate(
     heap_sort(blocks, |a, b| a.order < b.order);
     let aggs = &mut aggs[..count];
     for a in aggs.iter_mut() {
-        *a = Aggregate::FRESH;
+        *a = FRESH;
     }
     moments(nodes, blocks, aggs);
     for _ in 0..LLOYD_ROUNDS {

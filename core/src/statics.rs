@@ -139,16 +139,16 @@ impl<S: Storage> Scene<S> {
         let per_young = v.hdr.per_young();
         let (nodes, work, elems, n_elems) = (v.nodes, v.work, v.elems, v.n_elems);
         #[cfg(feature = "tool")]
-        let grabs = &*v.grabs;
+        let grabs = v.lists.grabs;
         #[cfg(feature = "loads")]
-        let loads = &*v.loads;
+        let loads = v.lists.loads;
         // The two-level preconditioner of `K`, where the build and the
         // storage have it: aggregates of the free nodes now, the factor at
         // every Newton iteration (the tangent turns with the body). The
         // dynamic step's factor is of another matrix: it is prepared again.
         #[cfg(feature = "two-level")]
         let mut pre = {
-            let mut pre = v.pre;
+            let mut pre = v.pre.parts;
             let n = if cfg.two_level && pre.blocks.len() == nodes.len() {
                 v.hdr.invalidate_coarse();
                 crate::precond::aggregate(per_young, elems, n_elems, nodes, pre.blocks, pre.aggs)

@@ -46,6 +46,9 @@ pub(crate) const STUCK: u8 = 128;
 #[cfg(feature = "ground")]
 pub(crate) const ON_GROUND: u16 = 0;
 
+/// Most nodes a scene holds: what the elements' `u16` node indices address.
+pub(crate) const MAX_NODES: usize = 1 << 16;
+
 /// A node slot (41 bytes of data, 44 with padding): opaque, named only to
 /// provide memory (`[Node::EMPTY; N]` for a [`SliceStorage`]). What only
 /// some nodes carry (a grab offset, a constant load) lives in [`NodeEntry`]
@@ -136,6 +139,22 @@ pub struct NodeWork {
 }
 
 impl NodeWork {
+    /// The node's state at the step's end, displacement and velocity, from
+    /// the step's candidates to its commit. It is kept in the CG's direction
+    /// slots `d` and `q`, which the solves have spent by then: the step's
+    /// end costs no memory of its own.
+    #[inline(always)]
+    pub(crate) fn end(&self) -> (Vec3, Vec3) {
+        (self.d, self.q)
+    }
+
+    /// Sets the node's state at the step's end ([`NodeWork::end`]).
+    #[inline(always)]
+    pub(crate) fn set_end(&mut self, u: Vec3, v: Vec3) {
+        self.d = u;
+        self.q = v;
+    }
+
     /// An unused slot.
     pub const EMPTY: Self = Self {
         x: [0.0; 3],
@@ -250,13 +269,13 @@ pub(crate) mod sealed {
         pub(crate) loads: &'a mut [NodeEntry],
         /// Node-block preconditioner slots (none, or one per node).
         #[cfg(feature = "two-level")]
-        pub(crate) blocks: &'a mut [crate::precond::NodeBlock],
+        pub(crate) blocks: &'a mut [crate::slots::NodeBlock],
         /// Aggregate slots of the two-level preconditioner.
         #[cfg(feature = "two-level")]
-        pub(crate) aggs: &'a mut [crate::precond::Aggregate],
+        pub(crate) aggs: &'a mut [crate::slots::Aggregate],
         /// Coarse factor slots (the square of the aggregate slots).
         #[cfg(feature = "two-level")]
-        pub(crate) coarse: &'a mut [crate::precond::CoarseBlock],
+        pub(crate) coarse: &'a mut [crate::slots::CoarseBlock],
     }
 
     /// Access to a storage's slots.
@@ -329,11 +348,11 @@ pub struct ArrayStorage<
     grabs: [NodeEntry; G],
     loads: [NodeEntry; L],
     #[cfg(feature = "two-level")]
-    blocks: [crate::precond::NodeBlock; P],
+    blocks: [crate::slots::NodeBlock; P],
     #[cfg(feature = "two-level")]
-    aggs: [crate::precond::Aggregate; A],
+    aggs: [crate::slots::Aggregate; A],
     #[cfg(feature = "two-level")]
-    coarse: [crate::precond::CoarseBlock; C],
+    coarse: [crate::slots::CoarseBlock; C],
 }
 
 impl<
@@ -356,11 +375,11 @@ impl<
             grabs: [NodeEntry::EMPTY; G],
             loads: [NodeEntry::EMPTY; L],
             #[cfg(feature = "two-level")]
-            blocks: [crate::precond::NodeBlock::EMPTY; P],
+            blocks: [crate::slots::NodeBlock::EMPTY; P],
             #[cfg(feature = "two-level")]
-            aggs: [crate::precond::Aggregate::EMPTY; A],
+            aggs: [crate::slots::Aggregate::EMPTY; A],
             #[cfg(feature = "two-level")]
-            coarse: [crate::precond::CoarseBlock::EMPTY; C],
+            coarse: [crate::slots::CoarseBlock::EMPTY; C],
         }
     }
 }
@@ -426,11 +445,11 @@ pub struct SliceStorage<'a> {
     grabs: &'a mut [NodeEntry],
     loads: &'a mut [NodeEntry],
     #[cfg(feature = "two-level")]
-    blocks: &'a mut [crate::precond::NodeBlock],
+    blocks: &'a mut [crate::slots::NodeBlock],
     #[cfg(feature = "two-level")]
-    aggs: &'a mut [crate::precond::Aggregate],
+    aggs: &'a mut [crate::slots::Aggregate],
     #[cfg(feature = "two-level")]
-    coarse: &'a mut [crate::precond::CoarseBlock],
+    coarse: &'a mut [crate::slots::CoarseBlock],
 }
 
 impl<'a> SliceStorage<'a> {
@@ -469,9 +488,9 @@ impl<'a> SliceStorage<'a> {
     #[must_use]
     pub fn with_preconditioner(
         self,
-        blocks: &'a mut [crate::precond::NodeBlock],
-        aggs: &'a mut [crate::precond::Aggregate],
-        coarse: &'a mut [crate::precond::CoarseBlock],
+        blocks: &'a mut [crate::slots::NodeBlock],
+        aggs: &'a mut [crate::slots::Aggregate],
+        coarse: &'a mut [crate::slots::CoarseBlock],
     ) -> Self {
         Self {
             blocks,
@@ -547,11 +566,11 @@ pub struct VecStorage {
     grabs: alloc::vec::Vec<NodeEntry>,
     loads: alloc::vec::Vec<NodeEntry>,
     #[cfg(feature = "two-level")]
-    blocks: alloc::vec::Vec<crate::precond::NodeBlock>,
+    blocks: alloc::vec::Vec<crate::slots::NodeBlock>,
     #[cfg(feature = "two-level")]
-    aggs: alloc::vec::Vec<crate::precond::Aggregate>,
+    aggs: alloc::vec::Vec<crate::slots::Aggregate>,
     #[cfg(feature = "two-level")]
-    coarse: alloc::vec::Vec<crate::precond::CoarseBlock>,
+    coarse: alloc::vec::Vec<crate::slots::CoarseBlock>,
 }
 
 #[cfg(feature = "alloc")]
@@ -565,7 +584,7 @@ impl VecStorage {
     /// [`Error::TooManyElements`](crate::Error::TooManyElements)).
     #[must_use]
     pub fn with_capacity(nodes: usize, elements: usize) -> Self {
-        let nodes = nodes.min(crate::scene::MAX_NODES);
+        let nodes = nodes.min(MAX_NODES);
         let blocks = crate::element_blocks(elements);
         let node_slots = (slots(nodes, Node::EMPTY), slots(nodes, NodeWork::EMPTY));
         // The node and work slots have one length: both, or neither.
@@ -575,7 +594,7 @@ impl VecStorage {
         };
         let entries = nodes.len();
         #[cfg(feature = "two-level")]
-        let aggs = crate::precond::aggregates_for(entries, crate::precond::MAX_AGGREGATES);
+        let aggs = crate::slots::aggregates_for(entries, crate::slots::MAX_AGGREGATES);
         Self {
             nodes,
             work,
@@ -583,13 +602,13 @@ impl VecStorage {
             grabs: slots(entries, NodeEntry::EMPTY),
             loads: slots(entries, NodeEntry::EMPTY),
             #[cfg(feature = "two-level")]
-            blocks: slots(entries, crate::precond::NodeBlock::EMPTY),
+            blocks: slots(entries, crate::slots::NodeBlock::EMPTY),
             #[cfg(feature = "two-level")]
-            aggs: slots(aggs, crate::precond::Aggregate::EMPTY),
+            aggs: slots(aggs, crate::slots::Aggregate::EMPTY),
             #[cfg(feature = "two-level")]
             coarse: slots(
                 crate::precond::coarse_blocks_for(aggs),
-                crate::precond::CoarseBlock::EMPTY,
+                crate::slots::CoarseBlock::EMPTY,
             ),
         }
     }

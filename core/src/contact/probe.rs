@@ -49,8 +49,8 @@
 //! node is held by one obstacle at a time, the one it is deepest in: a node
 //! squeezed between a probe and the ground follows the deeper.
 
+use crate::contact::ground::Contact;
 use crate::error::{Error, Parameter};
-use crate::ground::Contact;
 use crate::math::{add, axpy, cross, dot, is_finite3, normalize, scale, sqrt, sub, Vec3};
 
 /// Most probes a step takes: a held node records its probe's index + 1 in

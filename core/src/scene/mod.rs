@@ -1,6 +1,12 @@
 //! The scene: a validated mesh, its material and state, and the public API.
 
-use crate::element::{block_and_lane, element_blocks, qr, Element, ElementBlock, Method};
+#[cfg(feature = "ground")]
+mod ground;
+#[cfg(feature = "tool")]
+mod tool;
+
+use crate::contact::Probes;
+use crate::element::{block_and_lane, element_blocks, qr, Element, Method};
 use crate::error::{Error, Parameter, StepError};
 use crate::lanes::LANES;
 use crate::material::{
@@ -8,13 +14,11 @@ use crate::material::{
 };
 use crate::math::{add, det3, is_finite3, sub, Vec3};
 use crate::settings::{Preconditioner, Settings, StepStats};
-use crate::storage::{ArrayStorage, Node, NodeWork, PartsMut, Storage, FIXED};
-use crate::InstructionSet;
-
-#[cfg(feature = "ground")]
-use crate::ground::Plane;
+use crate::state::{Header, IsaChoice, Lists, PreSlots, View};
+use crate::storage::{ArrayStorage, Node, NodeWork, PartsMut, Storage, FIXED, MAX_NODES};
 #[cfg(feature = "tool")]
 use crate::tool::ToolState;
+use crate::InstructionSet;
 
 /// Options of [`Scene::build`].
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -23,165 +27,6 @@ pub struct BuildOptions {
     /// Swap the last two nodes of negatively oriented tetrahedra instead of
     /// rejecting them. Default off.
     pub reorient: bool,
-}
-
-/// Everything about a scene that is not per node or per element.
-///
-/// [`Header::EMPTY`], and with it an empty [`StaticScene`], is all zero
-/// bits, so that a `static` scene lands in `.bss` and costs no flash (an
-/// initial value with one non-zero byte puts the whole scene in `.data`,
-/// whose image is stored in flash as well: 27 kB more for the firmware
-/// example's 240 tetrahedra). `.ci/firmware.sh` checks it.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct Header {
-    pub(crate) n_nodes: usize,
-    pub(crate) n_elems: usize,
-    pub(crate) poisson: f32,
-    pub(crate) density: f32,
-    /// The step settings when `settings_valid`; the step and the solvers
-    /// read them through a [`View`], which makes them valid.
-    pub(crate) settings: Settings,
-    /// Whether `settings` holds the scene's settings. When not (an empty
-    /// header, where they are [`Settings::ZERO`]) the defaults apply: the
-    /// non-zero defaults are written on first use instead of being part of
-    /// the initial value.
-    pub(crate) settings_valid: bool,
-    pub(crate) time: f64,
-    pub(crate) inverted: u32,
-    /// Some node is fixed (kept by `fix_nodes`/`unfix_all` so the step need
-    /// not scan the flags).
-    pub(crate) any_fixed: bool,
-    #[cfg(feature = "ground")]
-    pub(crate) ground: Option<Plane>,
-    /// The friction between the body and the ground.
-    #[cfg(feature = "friction")]
-    pub(crate) ground_friction: crate::Friction,
-    #[cfg(feature = "tool")]
-    pub(crate) tool: ToolState,
-    /// Entries used in the storage's load list (nodes flagged `LOADED`).
-    #[cfg(feature = "loads")]
-    pub(crate) n_loads: usize,
-    /// The instruction set asked for ([`Scene::set_instruction_set`]).
-    pub(crate) isa: IsaChoice,
-    /// Aggregates of the two-level preconditioner in use.
-    #[cfg(feature = "two-level")]
-    pub(crate) n_aggs: usize,
-    /// Whether the preconditioner's aggregates and coarse factor match the
-    /// scene (cleared by whatever changes the rest system matrix; the next
-    /// step prepares them).
-    #[cfg(feature = "two-level")]
-    pub(crate) coarse_ready: bool,
-    /// The last step's solve needed more than its budget (its truncation
-    /// had no energy certificate): its solution is no guess for the next
-    /// step, which starts cold (`step::step`).
-    pub(crate) guess_stale: bool,
-    /// The energy guard's reference (J): the body's energy after the last
-    /// step's check, valid while `energy_known` (`step::Correction`).
-    #[cfg(feature = "energy-guard")]
-    pub(crate) energy_ref: f32,
-    #[cfg(feature = "energy-guard")]
-    pub(crate) energy_known: bool,
-    /// The tool's target when the reference was taken (m): the guard
-    /// credits the work of moving it since.
-    #[cfg(all(feature = "energy-guard", feature = "tool"))]
-    pub(crate) energy_target: crate::math::Vec3,
-}
-
-/// The instruction set a scene is asked to step with: `Best` is zero, so
-/// that a scene made by `const fn new` stays all zeros (a `static` in
-/// `.bss`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-#[repr(u8)]
-pub(crate) enum IsaChoice {
-    /// The best the CPU supports ([`InstructionSet::best`]).
-    Best = 0,
-    /// The baseline.
-    Baseline = 1,
-    /// AVX2 (checked supported when chosen).
-    Avx2 = 2,
-}
-
-impl IsaChoice {
-    /// What to ask the step for: `None` for the best.
-    pub(crate) fn asked(self) -> Option<InstructionSet> {
-        match self {
-            IsaChoice::Best => None,
-            IsaChoice::Baseline => Some(InstructionSet::Baseline),
-            IsaChoice::Avx2 => Some(InstructionSet::Avx2),
-        }
-    }
-}
-
-impl Header {
-    /// The body's `[λ/E, μ/E]`, which turn each element's `E/(36 V₀)` into
-    /// the kernels' `[λ', μ']`.
-    #[inline(always)]
-    pub(crate) fn per_young(&self) -> [f32; 2] {
-        lame_per_young(self.poisson)
-    }
-
-    /// Makes the default settings the scene's own. Out of line: it runs at
-    /// most once per scene, and every caller of `Scene::view` (the step
-    /// among them) keeps only the test.
-    #[cold]
-    #[inline(never)]
-    fn write_default_settings(&mut self, settings: Settings) {
-        self.settings = settings;
-        self.settings_valid = true;
-    }
-
-    /// Forgets the preconditioner's aggregates and coarse factor: the next
-    /// step prepares them again.
-    #[inline(always)]
-    pub(crate) fn invalidate_coarse(&mut self) {
-        #[cfg(feature = "two-level")]
-        {
-            self.coarse_ready = false;
-        }
-    }
-
-    /// Forgets the energy guard's reference: after a change through the
-    /// API (state, material, constraints, loads, settings) the next step's
-    /// energy is the new reference, not a gain.
-    #[inline(always)]
-    pub(crate) fn forget_energy(&mut self) {
-        #[cfg(feature = "energy-guard")]
-        {
-            self.energy_known = false;
-        }
-    }
-
-    const EMPTY: Self = Self {
-        n_nodes: 0,
-        n_elems: 0,
-        poisson: 0.0,
-        density: 0.0,
-        settings: Settings::ZERO,
-        settings_valid: false,
-        time: 0.0,
-        inverted: 0,
-        any_fixed: false,
-        #[cfg(feature = "ground")]
-        ground: None,
-        #[cfg(feature = "friction")]
-        ground_friction: crate::Friction::NONE,
-        #[cfg(feature = "tool")]
-        tool: ToolState::NONE,
-        #[cfg(feature = "loads")]
-        n_loads: 0,
-        isa: IsaChoice::Best,
-        #[cfg(feature = "two-level")]
-        n_aggs: 0,
-        #[cfg(feature = "two-level")]
-        coarse_ready: false,
-        guess_stale: false,
-        #[cfg(feature = "energy-guard")]
-        energy_ref: 0.0,
-        #[cfg(feature = "energy-guard")]
-        energy_known: false,
-        #[cfg(all(feature = "energy-guard", feature = "tool"))]
-        energy_target: [0.0; 3],
-    };
 }
 
 /// A soft body: tetrahedral mesh, material, state, constraints and loads.
@@ -281,33 +126,6 @@ impl Scene<crate::storage::VecStorage> {
     }
 }
 
-/// Mutable access to the used part of every slot array.
-pub(crate) struct View<'a> {
-    pub(crate) hdr: &'a mut Header,
-    pub(crate) nodes: &'a mut [Node],
-    pub(crate) work: &'a mut [NodeWork],
-    /// The blocks holding the scene's elements.
-    pub(crate) elems: &'a mut [ElementBlock],
-    /// Number of elements (the last block may be partly used).
-    pub(crate) n_elems: usize,
-    /// The grab offsets of the nodes the tool holds, in node order.
-    #[cfg(feature = "tool")]
-    pub(crate) grabs: &'a mut [crate::storage::NodeEntry],
-    /// The constant external forces, in node order.
-    #[cfg(feature = "loads")]
-    pub(crate) loads: &'a mut [crate::storage::NodeEntry],
-    /// The preconditioner's slots: a node block per node (or none), and
-    /// every aggregate and coarse slot of the storage.
-    #[cfg(feature = "two-level")]
-    pub(crate) pre: crate::precond::Parts<'a>,
-    /// The probes of `step_with_probes` (none for `step`).
-    #[cfg(feature = "probe")]
-    pub(crate) probes: &'a mut [crate::Probe],
-}
-
-/// Most nodes a scene holds: what the elements' `u16` node indices address.
-pub(crate) const MAX_NODES: usize = 1 << 16;
-
 impl<S: Storage> Scene<S> {
     /// An empty scene over `store`.
     pub const fn with_storage(store: S) -> Self {
@@ -347,18 +165,27 @@ impl<S: Storage> Scene<S> {
             work: p.work.get_mut(..n).unwrap_or_default(),
             elems: p.elems.get_mut(..element_blocks(e)).unwrap_or_default(),
             n_elems: e,
-            #[cfg(feature = "tool")]
-            grabs: p.grabs.get_mut(..n_grabs).unwrap_or_default(),
-            #[cfg(feature = "loads")]
-            loads: p.loads.get_mut(..n_loads).unwrap_or_default(),
-            #[cfg(feature = "two-level")]
-            pre: crate::precond::Parts {
-                blocks: p.blocks.get_mut(..n).unwrap_or_default(),
-                aggs: p.aggs,
-                coarse: p.coarse,
+            lists: Lists {
+                #[cfg(feature = "tool")]
+                grabs: p.grabs.get(..n_grabs).unwrap_or_default(),
+                #[cfg(feature = "loads")]
+                loads: p.loads.get(..n_loads).unwrap_or_default(),
+                _life: core::marker::PhantomData,
             },
-            #[cfg(feature = "probe")]
-            probes: &mut [],
+            pre: PreSlots {
+                #[cfg(feature = "two-level")]
+                parts: crate::slots::Parts {
+                    blocks: p.blocks.get_mut(..n).unwrap_or_default(),
+                    aggs: p.aggs,
+                    coarse: p.coarse,
+                },
+                _life: core::marker::PhantomData,
+            },
+            probes: Probes {
+                #[cfg(feature = "probe")]
+                list: &mut [],
+                _life: core::marker::PhantomData,
+            },
         }
     }
 
@@ -624,7 +451,7 @@ impl<S: Storage> Scene<S> {
         #[cfg(feature = "polar")]
         if settings.method == Method::Polar && self.settings().method != Method::Polar {
             for block in self.view().elems.iter_mut() {
-                block.rot = ElementBlock::POLAR_START;
+                block.rot = crate::element::ElementBlock::POLAR_START;
             }
         }
         self.hdr.settings = settings;
@@ -1037,7 +864,7 @@ impl<S: Storage> Scene<S> {
             }
         }
         let mut view = self.view();
-        view.probes = probes;
+        view.probes.list = probes;
         crate::step::step(view)
     }
 

@@ -1,0 +1,720 @@
+//! Contact: what holds a node during a step, and what the step does about it.
+//!
+//! The obstacles are the ground ([`ground`], feature `ground`) and rigid
+//! probes ([`probe`], feature `probe`), each seen by the step as a
+//! [`Contact`](ground::Contact) plane per node: [`Obstacles`] finds the one
+//! that holds a node and gives its plane, so a new obstacle shape is one
+//! more source of planes here and nothing in the step. A held node's normal
+//! velocity change is prescribed within the implicit solve and filtered from
+//! CG's directions (`Obstacles::filter`); a sticking node's whole velocity
+//! is (friction). After the solve the unfiltered residual is each held
+//! node's impulse: one that would pull releases the node for the next step,
+//! one beyond the static cone lets it slide from the next step.
+//!
+//! The step's contact stages, in order:
+//!
+//! * [`detect`]: which obstacle holds each node, and whether it sticks;
+//! * [`carry`]: for a body the ground alone holds, the rigid motion of its
+//!   guess (`PlaneFit`) and its rigid push out of the ground (`Lift`);
+//! * [`relax`](relax()): the push out taken back out of the velocity;
+//! * [`impact`](impact()): a landing body stopped as a whole;
+//! * [`land`] and [`impulse`], per node: nodes that end inside an obstacle
+//!   stopped, the held nodes' impulses and friction, the support force;
+//! * [`commit`]: the flags the next step starts from.
+//!
+//! Without the feature `ground` there is no obstacle and each stage
+//! compiles to nothing.
+
+#[cfg(feature = "ground")]
+pub(crate) mod ground;
+#[cfg(feature = "ground")]
+mod impact;
+#[cfg(feature = "ground")]
+mod lift;
+#[cfg(feature = "ground")]
+mod plane_fit;
+#[cfg(feature = "probe")]
+pub(crate) mod probe;
+#[cfg(feature = "ground")]
+mod relax;
+
+use crate::math::Vec3;
+#[cfg(feature = "ground")]
+use crate::math::{add, axpy, dot, scale, sub};
+use crate::rigid::Rigid;
+#[cfg(feature = "probe")]
+use crate::storage::BOUNDARY;
+#[cfg(feature = "friction")]
+use crate::storage::STUCK;
+use crate::storage::{Node, NodeWork};
+#[cfg(feature = "ground")]
+use crate::storage::{CONTACT, FIXED, ON_GROUND, RELEASED};
+#[cfg(feature = "ground")]
+use ground::{Contact, Plane};
+#[cfg(feature = "ground")]
+pub(crate) use impact::impact;
+#[cfg(feature = "ground")]
+use lift::Lift;
+#[cfg(feature = "ground")]
+use plane_fit::PlaneFit;
+#[cfg(feature = "ground")]
+pub(crate) use relax::relax;
+
+/// The probes a step presses on the body with (nothing without `probe`).
+pub(crate) struct Probes<'a> {
+    #[cfg(feature = "probe")]
+    pub(crate) list: &'a mut [crate::Probe],
+    pub(crate) _life: core::marker::PhantomData<&'a mut ()>,
+}
+
+/// The ground and its friction (nothing without the feature `ground`), and
+/// the step's length.
+#[derive(Clone, Copy)]
+pub(crate) struct Ground {
+    #[cfg(feature = "ground")]
+    pub(crate) plane: Option<Plane>,
+    #[cfg(feature = "friction")]
+    pub(crate) friction: crate::Friction,
+    #[cfg(feature = "ground")]
+    pub(crate) h: f32,
+}
+
+/// What can hold a node during a step: the ground and the probes.
+#[derive(Clone, Copy)]
+pub(crate) struct Obstacles<'a> {
+    #[cfg(feature = "ground")]
+    ground: Option<Plane>,
+    #[cfg(feature = "friction")]
+    ground_friction: crate::Friction,
+    #[cfg(feature = "probe")]
+    probes: &'a [crate::Probe],
+    _life: core::marker::PhantomData<&'a ()>,
+}
+
+impl<'a> Obstacles<'a> {
+    /// The scene's ground and the step's probes.
+    #[inline(always)]
+    pub(crate) fn new(ground: Ground, probes: &'a Probes<'_>) -> Self {
+        let _ = (ground, probes);
+        Self {
+            #[cfg(feature = "ground")]
+            ground: ground.plane,
+            #[cfg(feature = "friction")]
+            ground_friction: ground.friction,
+            #[cfg(feature = "probe")]
+            probes: probes.list,
+            _life: core::marker::PhantomData,
+        }
+    }
+
+    /// Whether anything can hold a node: the ground or a probe.
+    #[cfg(feature = "ground")]
+    #[inline(always)]
+    pub(crate) fn any(&self) -> bool {
+        #[cfg(feature = "probe")]
+        if !self.probes.is_empty() {
+            return true;
+        }
+        self.ground.is_some()
+    }
+
+    /// The filter `S` of node `i`: the normal of its contact plane removed
+    /// from a held node. The obstacles are tested first: without them, the
+    /// loop reads no node flags.
+    #[inline(always)]
+    pub(crate) fn filter(&self, nodes: &[Node], i: usize, z: Vec3) -> Vec3 {
+        #[cfg(feature = "ground")]
+        if self.any() {
+            if let Some(n) = nodes.get(i) {
+                // A sticking node's velocity is prescribed whole.
+                #[cfg(feature = "friction")]
+                if n.flags & STUCK != 0 {
+                    return [0.0; 3];
+                }
+                if let Some(c) = self.holding(n) {
+                    return c.filter(z);
+                }
+            }
+        }
+        let _ = (i, nodes);
+        z
+    }
+
+    /// A sliding node's kinetic friction, along its contact plane, added to
+    /// the force `f` of the right-hand side.
+    #[inline(always)]
+    pub(crate) fn drag(&self, n: &Node, w: &mut NodeWork, f: Vec3) -> Vec3 {
+        #[cfg(feature = "friction")]
+        if w.drag != [0.0; 3] {
+            if let Some(c) = self.holding(n) {
+                w.drag = c.filter(w.drag);
+                return add(f, w.drag);
+            }
+        }
+        let _ = (n, w);
+        f
+    }
+}
+
+#[cfg(feature = "ground")]
+impl Obstacles<'_> {
+    /// The ground's plane, with its friction.
+    #[inline(always)]
+    fn ground_contact(&self, g: Plane) -> Contact {
+        #[cfg(feature = "friction")]
+        return Contact {
+            friction: self.ground_friction,
+            ..Contact::still(g)
+        };
+        #[cfg(not(feature = "friction"))]
+        Contact::still(g)
+    }
+
+    /// The contact plane of a node the step holds (`CONTACT`): the ground's,
+    /// or its probe's, recomputed from the same positions and poses as when
+    /// the node was found (so with the same bits).
+    #[inline(always)]
+    pub(crate) fn holding(&self, n: &Node) -> Option<Contact> {
+        if n.flags & CONTACT == 0 {
+            return None;
+        }
+        if n.contact == ON_GROUND {
+            return self.ground.map(|g| self.ground_contact(g));
+        }
+        #[cfg(feature = "probe")]
+        if let Some(p) = self.probes.get(usize::from(n.contact) - 1) {
+            return Some(p.contact(n.position()));
+        }
+        None
+    }
+
+    /// The obstacle that holds a free node at `x` this step, and its plane:
+    /// the ground if the node touches or is below it and is not moving
+    /// away; a probe (for a node on the boundary) if the probe reaches it
+    /// during the step and it is not moving away faster than the probe.
+    /// Of several, the one the node ends deepest in. A node held last step
+    /// (`was`) is held by a probe while it is within
+    /// [`Probe::gap`](crate::Probe) of its surface (where the last step left
+    /// it, up to rounding and the probe's own turn), however the node moves:
+    /// a node pressed by a moving probe moves with it, as fast as its plane
+    /// up to rounding, and one pressed against a still probe stays on it;
+    /// the contact force decides release. Whichever obstacle held it: a node
+    /// touching the probe is held, and a caller that takes a probe out of
+    /// the slice renumbers the ones after it.
+    #[inline(always)]
+    fn deepest(&self, n: &Node, x: Vec3, h: f32, was: Option<u16>) -> Option<(u16, Contact)> {
+        let mut best: Option<(u16, Contact, f32)> = None;
+        if let Some(g) = self.ground {
+            let c = self.ground_contact(g);
+            let dist = c.distance(x);
+            if c.holds(dist, n.v, h) {
+                best = Some((ON_GROUND, c, dist));
+            }
+        }
+        #[cfg(feature = "probe")]
+        if n.flags & BOUNDARY != 0 {
+            // At most `MAX_PROBES`, checked by `step_with_probes`: the id
+            // fits.
+            for (k, p) in self.probes.iter().enumerate() {
+                let c = p.contact(x);
+                let dist = c.distance(x);
+                let id = k as u16 + 1;
+                let holds = c.holds(dist, n.v, h) || (was.is_some() && dist <= p.gap(x, n.v, h));
+                if holds && best.is_none_or(|b| dist < b.2) {
+                    best = Some((id, c, dist));
+                }
+            }
+        }
+        let _ = was; // only probes hold on by it
+        best.map(|(id, c, _)| (id, c))
+    }
+}
+
+/// Whether the ground holds `n` this step.
+#[cfg(feature = "ground")]
+#[inline(always)]
+pub(crate) fn on_ground(n: &Node) -> bool {
+    n.flags & CONTACT != 0 && n.contact == ON_GROUND
+}
+
+/// The nodes the obstacles hold this step.
+#[derive(Clone, Copy, Default)]
+pub(crate) struct Held {
+    /// Nodes held (by the ground or a probe).
+    pub(crate) held: u32,
+    /// Held nodes below their plane beyond round-off, which the step
+    /// pushes out.
+    pub(crate) pushes: u32,
+    /// The nodes the ground holds (the others' are probes').
+    #[cfg_attr(not(feature = "ground"), allow(dead_code))]
+    pub(crate) ground: u32,
+}
+
+impl Held {
+    /// Whether the step pushes held nodes out of their obstacle (and then
+    /// relaxes the push out of the velocity).
+    #[inline(always)]
+    pub(crate) fn relaxed(&self) -> bool {
+        cfg!(feature = "ground") && self.pushes > 0
+    }
+}
+
+/// The detect stage: zeroes the probes' sums, and marks each node that an
+/// obstacle holds this step (`CONTACT`, what holds it in `Node::contact`),
+/// and, with friction, whether it sticks (`STUCK`) or slides on with the
+/// drag the last step planned.
+#[inline(always)]
+pub(crate) fn detect(
+    obstacles: Obstacles<'_>,
+    nodes: &mut [Node],
+    work: &mut [NodeWork],
+    h: f32,
+) -> Held {
+    #[allow(unused_mut)] // only the ground counts held nodes
+    let mut held = Held::default();
+    #[cfg(feature = "ground")]
+    if obstacles.any() {
+        for (n, _w) in nodes.iter_mut().zip(work.iter_mut()) {
+            // What held the node last step (not released, or it is skipped).
+            let was = (n.flags & CONTACT != 0).then_some(n.contact);
+            n.flags &= !CONTACT;
+            // Between steps the flag says the node slid on `was` in the
+            // last step and did not stop; within a step, it sticks.
+            #[cfg(feature = "friction")]
+            let slid = n.flags & STUCK != 0;
+            #[cfg(feature = "friction")]
+            {
+                n.flags &= !STUCK;
+            }
+            // The planned drag, kept below only for a node that slides on.
+            #[cfg(feature = "friction")]
+            let drag = core::mem::replace(&mut _w.drag, [0.0; 3]);
+            if n.flags & (FIXED | RELEASED) != 0 {
+                continue;
+            }
+            let x = n.position();
+            if let Some((id, c)) = obstacles.deepest(n, x, h, was) {
+                n.flags |= CONTACT;
+                n.contact = id;
+                // A held node sticks unless it slid on the same obstacle
+                // in the last step (and did not stop): a contact that the
+                // static friction cannot hold is found by its impulse
+                // (`Contact::drag_after_stick`), and slides from the next
+                // step, with the kinetic friction force planned then.
+                #[cfg(feature = "friction")]
+                if slid && was == Some(id) {
+                    _w.drag = drag;
+                } else if c.friction.sticks() {
+                    n.flags |= STUCK;
+                }
+                held.held += 1;
+                held.ground += u32::from(id == ON_GROUND);
+                held.pushes += u32::from(c.push(x).is_some());
+            }
+        }
+    } else {
+        // No node is held (flags left by an earlier step).
+        for n in nodes.iter_mut() {
+            n.flags &= !CONTACT;
+            #[cfg(feature = "friction")]
+            {
+                n.flags &= !STUCK;
+            }
+        }
+    }
+    let _ = (obstacles, nodes, work, h);
+    held
+}
+
+/// The ground's rigid helpers for a body that the ground holds and no
+/// fixed node does (nothing without the feature `ground`).
+#[derive(Clone, Copy, Default)]
+pub(crate) struct Carry {
+    /// The body at the step's start, with its inertia.
+    #[cfg(feature = "ground")]
+    resting: Option<Rigid>,
+    /// The rigid push out of the ground, for a body it alone holds.
+    #[cfg(feature = "ground")]
+    lift: Option<Lift>,
+    /// The plane's rigid motion that the guess starts from.
+    #[cfg(feature = "ground")]
+    carried: Option<(PlaneFit, (f32, Vec3))>,
+}
+
+/// The carry stage, for a body that the ground holds and no fixed node
+/// does.
+///
+/// * **The guess.** The guess's rigid part is the plane's motion that gives
+///   the held nodes their prescribed normal velocity change (`PlaneFit`),
+///   not the free fall `fall`. A resting body then starts at rest, carried
+///   as a whole, and the solve has only its deformation to find: the part
+///   a truncated solve resolves. (From the free fall it would have to stop
+///   the whole body through the layer above the held nodes.)
+/// * **The push.** Nodes the ground pushes out, of a body it alone holds
+///   and that moves as one over the step ([`crate::rigid::reach`]): the
+///   push is the rigid lift that takes every held node at least to the
+///   plane (`Lift`), not each node to the plane on its own.
+///
+/// (The body's inertia at the step's start serves the landing too: the
+/// nodes do not move until the step is applied.)
+#[inline(always)]
+pub(crate) fn carry(
+    ground: Ground,
+    held: &Held,
+    any_fixed: bool,
+    fall: Vec3,
+    nodes: &[Node],
+    reach: impl FnOnce(&Rigid) -> f32,
+) -> Carry {
+    let _ = (ground, held, any_fixed, fall, nodes, &reach);
+    #[cfg(feature = "ground")]
+    {
+        let h = ground.h;
+        let ground = ground.plane;
+        let resting = match ground {
+            Some(_) if held.ground > 0 && !any_fixed => Rigid::new(nodes, true),
+            _ => None,
+        };
+        let lift = match (ground, &resting) {
+            (Some(g), Some(body))
+                if held.pushes > 0 && held.held == held.ground && reach(body) >= 1.0 =>
+            {
+                Lift::new(g, body, nodes, h)
+            }
+            _ => None,
+        };
+        let mut carry = Carry {
+            resting,
+            lift,
+            carried: None,
+        };
+        carry.carried = match (ground, &resting) {
+            (Some(g), Some(body)) => {
+                let mut fit = PlaneFit::new(g.normal, body.c);
+                let g = Contact::still(g);
+                for n in nodes.iter().filter(|n| on_ground(n)) {
+                    let dv = g.held_dv(carry.depth(n, g.distance(n.position()), h), n.v, h);
+                    fit.add(n.position(), n.mass, dv - dot(g.normal, fall));
+                }
+                fit.solve(body).map(|m| (fit, m))
+            }
+            _ => None,
+        };
+        carry
+    }
+    #[cfg(not(feature = "ground"))]
+    Carry::default()
+}
+
+impl Carry {
+    /// The depth below its plane, at `dist`, that the push of node `n` takes
+    /// out: the lift's where there is one.
+    #[cfg(feature = "ground")]
+    #[inline(always)]
+    fn depth(&self, n: &Node, dist: f32, h: f32) -> f32 {
+        self.lift.as_ref().map_or(dist, |l| l.depth(n, dist, h))
+    }
+
+    /// The rigid lift, for a body the ground alone holds.
+    #[cfg(feature = "ground")]
+    #[inline(always)]
+    pub(crate) fn lift(&self) -> Option<&Lift> {
+        self.lift.as_ref()
+    }
+
+    /// The body at the step's start, when the ground holds it.
+    #[cfg(feature = "ground")]
+    #[inline(always)]
+    pub(crate) fn resting(&self) -> Option<Rigid> {
+        self.resting
+    }
+
+    /// A free node's guess `x`, with the carried body's rigid motion added
+    /// and a held node's prescribed normal (or, sticking, whole) velocity
+    /// change.
+    #[inline(always)]
+    pub(crate) fn guess(&self, obstacles: Obstacles<'_>, n: &Node, x: Vec3, h: f32) -> Vec3 {
+        #[cfg(feature = "ground")]
+        {
+            let mut x = x;
+            if let Some((fit, m)) = &self.carried {
+                x = add(x, fit.at(n.position(), *m));
+            }
+            if let Some(c) = obstacles.holding(n) {
+                let dist = self.depth(n, c.distance(n.position()), h);
+                x = c.with_normal(x, c.held_dv(dist, n.v, h));
+                #[cfg(feature = "friction")]
+                if n.flags & STUCK != 0 {
+                    x = c.stuck_dv(dist, n.v, h);
+                }
+            }
+            x
+        }
+        #[cfg(not(feature = "ground"))]
+        {
+            let _ = (obstacles, n, h);
+            x
+        }
+    }
+}
+
+/// The end of the step's position update for node `n` with its new
+/// velocity `v`: after `relax`, positions move with the velocity change
+/// before it (`dv`), the push out included.
+#[inline(always)]
+pub(crate) fn displaced(n: &Node, w: &NodeWork, v: Vec3, relaxed: bool, h: f32) -> Vec3 {
+    #[cfg(feature = "ground")]
+    return axpy(n.u, h, if relaxed { add(n.v, w.dv) } else { v });
+    #[cfg(not(feature = "ground"))]
+    {
+        let _ = (w, relaxed);
+        crate::math::axpy(n.u, h, v)
+    }
+}
+
+/// Whether a node that the ground does not hold ends at displacement `u`
+/// below it (held nodes end on the plane, below it by round-off at most,
+/// which the next step holds again: only the others can land).
+#[inline(always)]
+pub(crate) fn lands(ground: Ground, n: &Node, u: Vec3) -> bool {
+    let _ = (ground, n, u);
+    #[cfg(feature = "ground")]
+    if let Some(g) = ground.plane {
+        return !on_ground(n) && Contact::still(g).distance(add(n.x0, u)) < 0.0;
+    }
+    false
+}
+
+/// Whether any node ends below the ground (end displacements in `d`).
+#[inline(always)]
+pub(crate) fn below(ground: Ground, nodes: &[Node], work: &[NodeWork]) -> bool {
+    let _ = (ground, nodes, work);
+    #[cfg(feature = "ground")]
+    if let Some(g) = ground.plane {
+        return nodes
+            .iter()
+            .zip(work.iter())
+            .any(|(n, w)| Contact::still(g).distance(add(n.x0, w.d)) < 0.0);
+    }
+    false
+}
+
+/// A node's landing at the step's end (displacement `u`, velocity `v`):
+/// below the ground, it loses its inward normal velocity (`Plane::stop`)
+/// and is pushed out by the next step; inside a probe, the same relative to
+/// the probe's own, which feels the impulse. Adds the ground's impulse to
+/// `support`; returns the velocity and whether a probe stopped the node.
+#[inline(always)]
+pub(crate) fn land(
+    ground: Ground,
+    probes: &mut Probes<'_>,
+    n: &Node,
+    u: Vec3,
+    v: Vec3,
+    support: &mut Vec3,
+) -> (Vec3, bool) {
+    let _ = (ground, &probes, n, u, &support);
+    #[allow(unused_mut)] // only probes land nodes in them
+    let mut landed = false;
+    #[cfg(feature = "ground")]
+    let h = ground.h;
+    #[cfg(feature = "ground")]
+    let v = match ground.plane {
+        Some(g) => {
+            let stopped = Contact::still(g).stop(add(n.x0, u), v, h);
+            *support = axpy(*support, n.mass, sub(stopped, v));
+            stopped
+        }
+        None => v,
+    };
+    #[cfg(feature = "probe")]
+    let v = if !probes.list.is_empty() && n.flags & BOUNDARY != 0 {
+        let x = add(n.x0, u);
+        let mut v = v;
+        for p in probes.list.iter_mut() {
+            if let Some(c) = p.inside(x) {
+                let stopped = c.stop(x, v, h);
+                p.next_force = axpy(p.next_force, -n.mass, sub(stopped, v));
+                landed = true;
+                v = stopped;
+            }
+        }
+        v
+    } else {
+        v
+    };
+    (v, landed)
+}
+
+/// A held node's contact impulse at the step's end (displacement `u`,
+/// velocity `v`), and its friction, which moves its velocity and position.
+/// Adds the ground's impulse to `support` and a probe's to the probe.
+///
+/// The constraint impulses are `−r` from the step's solve. After `relax`
+/// (which kept the step's `n·r` of held nodes in `pull`), `r` is the push's
+/// residual `r_w`: the velocity change kept, `dv − w`, has the residual of
+/// the step's less the push's (`A (dv − w) = b − r_dv + r_w`), so its
+/// impulses are the step's less the push's, which only moved positions.
+#[inline(always)]
+pub(crate) fn impulse(
+    ground: Ground,
+    probes: &mut Probes<'_>,
+    n: &Node,
+    w: &mut NodeWork,
+    (u, v): (Vec3, Vec3),
+    relaxed: bool,
+    support: &mut Vec3,
+) -> (Vec3, Vec3) {
+    let _ = (ground, &probes, n, &w, relaxed, &support);
+    #[cfg(feature = "ground")]
+    {
+        let h = ground.h;
+        #[allow(unused_mut)] // only friction moves them
+        let (mut u, mut v) = (u, v);
+        let holding = Obstacles::new(ground, probes).holding(n);
+        if let Some(c) = holding {
+            // `pull` (the step's solve's, with the push) decides the
+            // release; the impulse is that of the velocity kept.
+            let along = dot(c.normal, w.r);
+            let kept = if relaxed { w.pull - along } else { along };
+            if !relaxed {
+                w.pull = along;
+            }
+            #[allow(unused_mut)] // only friction adds to it
+            let mut impulse = scale(c.normal, -kept);
+            #[cfg(feature = "friction")]
+            {
+                let dv;
+                (impulse, dv) = friction(&c, n, w, impulse, v, kept, relaxed, h);
+                v = add(v, dv);
+                u = axpy(u, h, dv);
+            }
+            if n.contact == ON_GROUND {
+                *support = add(*support, impulse);
+            }
+            #[cfg(feature = "probe")]
+            if let Some(p) = usize::from(n.contact)
+                .checked_sub(1)
+                .and_then(|k| probes.list.get_mut(k))
+            {
+                p.next_force = sub(p.next_force, impulse);
+                p.next_contacts += 1;
+                // A node its contact still pushes (it stays held) ends on
+                // the curved surface, not outside it on the tangent plane:
+                // else the next step would find it off the probe and let it
+                // go for a step, in which the body's push drives it deep
+                // inside (a contact that flickers).
+                if w.pull <= 0.0 {
+                    if let Some(off) = p.outside(add(n.x0, u)) {
+                        u = sub(u, off);
+                    }
+                }
+            }
+        }
+        (u, v)
+    }
+    #[cfg(not(feature = "ground"))]
+    (u, v)
+}
+
+/// Friction at a held node with the normal impulse `impulse` (`kept` along
+/// the normal): the whole impulse and the velocity change friction makes.
+/// A sticking node's tangential impulse is its residual's; beyond the
+/// static cone, the node slides from the next step. A sliding node's is the
+/// kinetic force's (in the solve's right-hand side); one that it stopped
+/// (its velocity along the plane no longer against the force) loses what
+/// is left of that velocity and sticks. Plans the next step's drag in
+/// `reaction`.
+#[cfg(feature = "friction")]
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn friction(
+    c: &Contact,
+    n: &Node,
+    w: &mut NodeWork,
+    impulse: Vec3,
+    v: Vec3,
+    kept: f32,
+    relaxed: bool,
+    h: f32,
+) -> (Vec3, Vec3) {
+    let mut impulse = impulse;
+    let mut dv = [0.0; 3];
+    let next = if n.flags & STUCK != 0 {
+        let r = if relaxed { sub(w.reaction, w.r) } else { w.r };
+        impulse = scale(r, -1.0);
+        c.drag_after_stick(impulse, h)
+    } else if w.drag != [0.0; 3] {
+        impulse = axpy(impulse, h, w.drag);
+        let rel = c.sliding(v, h);
+        if dot(rel, w.drag) < 0.0 {
+            c.drag(scale(rel, -1.0), -kept, h)
+        } else {
+            dv = scale(rel, -1.0);
+            [0.0; 3]
+        }
+    } else {
+        [0.0; 3]
+    };
+    w.reaction = next;
+    impulse = axpy(impulse, n.mass, dv);
+    (impulse, dv)
+}
+
+/// The commit of node `n`'s contact flags: a held node whose contact would
+/// pull (`pull > 0`) is released for the next step; one that slides on
+/// keeps the kinetic force planned.
+#[inline(always)]
+pub(crate) fn commit(n: &mut Node, w: &mut NodeWork) {
+    let _ = (&n, &w);
+    #[cfg(feature = "ground")]
+    {
+        n.flags &= !RELEASED;
+        if n.flags & CONTACT != 0 && w.pull > 0.0 {
+            n.flags |= RELEASED;
+        }
+        #[cfg(feature = "friction")]
+        {
+            n.flags &= !STUCK;
+            w.drag = [0.0; 3];
+            if n.flags & (CONTACT | RELEASED) == CONTACT && w.reaction != [0.0; 3] {
+                n.flags |= STUCK;
+                w.drag = w.reaction;
+            }
+        }
+    }
+}
+
+/// The probes' forces and contacts made current, and their poses those
+/// of the step's end.
+#[inline(always)]
+pub(crate) fn commit_probes(probes: &mut Probes<'_>, h: f32) {
+    let _ = (&probes, h);
+    #[cfg(feature = "probe")]
+    for p in probes.list.iter_mut() {
+        p.commit(h);
+    }
+}
+
+/// Zeroes the probes' sums for the step.
+#[inline(always)]
+pub(crate) fn begin(probes: &mut Probes<'_>) {
+    let _ = &probes;
+    #[cfg(feature = "probe")]
+    for p in probes.list.iter_mut() {
+        p.next_force = [0.0; 3];
+        p.next_contacts = 0;
+    }
+}
+
+/// `probe` (`math::finite_probe`) of every probe's force.
+#[inline(always)]
+pub(crate) fn finite(probes: &Probes<'_>, probe: f32) -> f32 {
+    let _ = probes;
+    #[cfg(feature = "probe")]
+    let probe = probes
+        .list
+        .iter()
+        .fold(probe, |acc, p| crate::math::finite_probe(acc, p.next_force));
+    probe
+}
