@@ -1,7 +1,7 @@
 //! Isotropic linear-elastic material: Young's modulus, Poisson ratio, density.
 
+pub(crate) use crate::element::lame;
 use crate::error::{Error, Parameter};
-use crate::math::Real;
 
 /// An isotropic material, entered as engineers measure it.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -80,18 +80,6 @@ pub(crate) fn lame_per_young(poisson: f32) -> [f32; 2] {
 pub(crate) fn element_stiffness(young: f32, six_v0: f32) -> f32 {
     // 1/(36 V₀) = 1/(6 · 6V₀)
     young / (6.0 * six_v0)
-}
-
-/// The coefficients `[λ', μ'] = [λ, μ] / (36 V₀)` (Pa/m³) used by the kernels,
-/// from an element's [`element_stiffness`] and [`lame_per_young`].
-/// For one element or one per lane.
-#[inline(always)]
-#[must_use]
-pub(crate) fn lame<T: Real>(stiffness: T, per_young: [f32; 2]) -> [T; 2] {
-    [
-        T::splat(per_young[0]) * stiffness,
-        T::splat(per_young[1]) * stiffness,
-    ]
 }
 
 #[cfg(test)]

@@ -232,7 +232,6 @@ impl Turn {
 /// `E V` is its stored `E / (36 V₀)` times `(6 V₀)²`. The limit of the
 /// rigid part of an impact: a body without stiffness (`c = 0`) takes none,
 /// each node lands alone; a stiff body over a long step lands whole.
-#[cfg(any(feature = "ground", feature = "free-rotation"))]
 pub(crate) fn reach(
     body: &Rigid,
     elems: &[crate::element::ElementBlock],

@@ -2,14 +2,13 @@
 //! statistics a step returns.
 
 use crate::element::Method;
-use crate::error::{Error, Parameter};
-use crate::math::{is_finite3, Vec3};
+use crate::math::Vec3;
 
 /// What preconditions the step's conjugate gradients.
 ///
 /// Every variant exists in every build; `BlockJacobi` and `TwoLevel` need
 /// the feature `two-level` and storage for their data, else the scene
-/// refuses them ([`Error::PreconditionerUnavailable`]).
+/// refuses them ([`Error::PreconditionerUnavailable`](crate::Error::PreconditionerUnavailable)).
 // `Mass` is 0: an all-zero `Settings` (a `static` scene's header) holds it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -77,7 +76,7 @@ impl Default for Preconditioner {
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Settings {
     /// Element method; one that is not compiled in is refused
-    /// ([`Error::MethodNotCompiled`]). Default [`Method::DEFAULT`]:
+    /// ([`Error::MethodNotCompiled`](crate::Error::MethodNotCompiled)). Default [`Method::DEFAULT`]:
     /// `QrInvertible` where compiled in, else `Qr`.
     pub method: Method,
     /// Time step `h` (s, `> 0`). Default 0.001.
@@ -148,7 +147,7 @@ impl Settings {
     /// [`Preconditioner::DEFAULT`]. A storage without the two-level
     /// preconditioner's slots (a plain [`StaticScene`](crate::StaticScene))
     /// refuses them where the feature `two-level` is on
-    /// ([`Error::PreconditionerUnavailable`]); start such a scene's settings
+    /// ([`Error::PreconditionerUnavailable`](crate::Error::PreconditionerUnavailable)); start such a scene's settings
     /// from [`Scene::default_settings`](crate::Scene::default_settings).
     #[must_use]
     pub const fn new() -> Self {
@@ -201,39 +200,6 @@ impl Settings {
     #[must_use]
     pub const fn iteration_cap(&self) -> u32 {
         self.cg_iterations.saturating_mul(2).saturating_add(16)
-    }
-
-    /// Checks every field's range (the error names the field) and that the
-    /// method is compiled in.
-    pub fn validate(&self) -> Result<(), Error> {
-        if !self.method.is_compiled() {
-            return Err(Error::MethodNotCompiled {
-                method: self.method,
-            });
-        }
-        let bad = |parameter| Err(Error::InvalidParameter { parameter });
-        if !(self.dt > 0.0 && self.dt.is_finite()) {
-            return bad(Parameter::Dt);
-        }
-        if self.cg_iterations == 0 {
-            return bad(Parameter::CgIterations);
-        }
-        if !(self.cg_tolerance >= 0.0 && self.cg_tolerance.is_finite()) {
-            return bad(Parameter::CgTolerance);
-        }
-        if !(self.rayleigh_mass >= 0.0 && self.rayleigh_mass.is_finite()) {
-            return bad(Parameter::RayleighMass);
-        }
-        if !(self.rayleigh_stiffness >= 0.0 && self.rayleigh_stiffness.is_finite()) {
-            return bad(Parameter::RayleighStiffness);
-        }
-        if !is_finite3(self.gravity) {
-            return bad(Parameter::Gravity);
-        }
-        if self.energy_guard && !cfg!(feature = "energy-guard") {
-            return bad(Parameter::EnergyGuard);
-        }
-        Ok(())
     }
 }
 

@@ -282,7 +282,7 @@ impl Spring {
     }
 
     /// The target (m): where the grabbed nodes' centroid is pulled to.
-    #[cfg(feature = "tool")]
+    #[cfg(all(feature = "tool", feature = "energy-guard"))]
     #[inline(always)]
     pub(crate) fn target(&self) -> Vec3 {
         self.tool.target

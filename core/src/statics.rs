@@ -20,14 +20,12 @@
 //!   system still goes to zero.
 
 use crate::cg;
-use crate::math::{add, dot, is_finite3, scale, sqrt};
 #[cfg(feature = "tool")]
-use crate::math::{axpy, sub};
+use crate::math::sub;
+use crate::math::{add, axpy, dot, is_finite3, scale, sqrt};
 use crate::pass;
 #[cfg(any(feature = "tool", feature = "loads"))]
 use crate::storage::Entries;
-#[cfg(feature = "tool")]
-use crate::storage::GRABBED;
 #[cfg(feature = "loads")]
 use crate::storage::LOADED;
 use crate::storage::{NodeWork, Storage, FIXED};
@@ -124,14 +122,9 @@ impl<S: Storage> Scene<S> {
         if v.elems.is_empty() {
             return Err(Error::NotBuilt);
         }
-        #[cfg(feature = "tool")]
-        let tool = v.hdr.tool;
-        #[allow(unused_mut)] // only the tool adds to it
-        let mut held = v.nodes.iter().any(|n| n.flags & FIXED != 0);
-        #[cfg(feature = "tool")]
-        {
-            held |= tool.active() && tool.k_node > 0.0;
-        }
+        let spring = v.hdr.spring();
+        let held =
+            v.nodes.iter().any(|n| n.flags & FIXED != 0) || (spring.active() && spring.k() > 0.0);
         if !held {
             return Err(Error::Unconstrained);
         }
@@ -198,12 +191,12 @@ impl<S: Storage> Scene<S> {
                 #[allow(unused_mut)] // only the tool adds to it
                 let mut diag = w.inv_p;
                 #[cfg(feature = "tool")]
-                if n.flags & GRABBED != 0 && tool.active() {
+                if spring.holds(n) {
                     load = add(
                         load,
-                        scale(sub(tool.anchor(offsets.next()), n.position()), tool.k_node),
+                        scale(sub(spring.anchor(offsets.next()), n.position()), spring.k()),
                     );
-                    diag += tool.k_node;
+                    diag += spring.k();
                 }
                 if n.flags & FIXED != 0 {
                     w.r = [0.0; 3];
@@ -228,25 +221,7 @@ impl<S: Storage> Scene<S> {
             if !last.converged {
                 #[cfg(feature = "two-level")]
                 if let Some(pre) = pre.as_mut() {
-                    use crate::precond;
-                    precond::rotations(nodes, pre.blocks, pre.aggs);
-                    precond::node_blocks(
-                        per_young,
-                        elems,
-                        n_elems,
-                        nodes,
-                        pre.blocks,
-                        0.0,
-                        1.0,
-                        |_n| {
-                            #[cfg(feature = "tool")]
-                            if _n.flags & GRABBED != 0 && tool.active() {
-                                return tool.k_node;
-                            }
-                            0.0
-                        },
-                    );
-                    precond::factor(per_young, elems, n_elems, nodes, pre, 0.0, 1.0);
+                    refactor(per_young, elems, n_elems, nodes, pre, spring);
                 }
                 #[cfg(feature = "two-level")]
                 let whole = pre.as_mut().map(|pre| {
@@ -261,11 +236,9 @@ impl<S: Storage> Scene<S> {
                     let mut dq = 0.0f32;
                     for (_n, w) in nodes.iter().zip(work.iter_mut()) {
                         // K d = −(−K d), plus the tool spring.
-                        #[allow(unused_mut)] // only the tool adds to it
                         let mut q = scale(w.q, -1.0);
-                        #[cfg(feature = "tool")]
-                        if _n.flags & GRABBED != 0 && tool.active() {
-                            q = axpy(q, tool.k_node, w.d);
+                        if spring.holds(_n) {
+                            q = axpy(q, spring.k(), w.d);
                         }
                         w.q = q;
                         dq += dot(w.d, q);
@@ -320,6 +293,33 @@ impl<S: Storage> Scene<S> {
         }
         Ok(last)
     }
+}
+
+/// The two-level preconditioner of the tangent stiffness `K` (with the
+/// tool's spring on grabbed nodes) at the current state: the aggregates'
+/// rotations, the node blocks and the coarse factor.
+#[cfg(feature = "two-level")]
+fn refactor(
+    per_young: [f32; 2],
+    elems: &[crate::element::ElementBlock],
+    n_elems: usize,
+    nodes: &[crate::storage::Node],
+    pre: &mut crate::precond::Parts<'_>,
+    spring: crate::state::Spring,
+) {
+    use crate::precond;
+    precond::rotations(nodes, pre.blocks, pre.aggs);
+    precond::node_blocks(
+        per_young,
+        elems,
+        n_elems,
+        nodes,
+        pre.blocks,
+        0.0,
+        1.0,
+        |n| if spring.holds(n) { spring.k() } else { 0.0 },
+    );
+    precond::factor(per_young, elems, n_elems, nodes, pre, 0.0, 1.0);
 }
 
 /// `a · b` in f64, for sums of squares that may overflow f32.

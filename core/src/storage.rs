@@ -607,7 +607,7 @@ impl VecStorage {
             aggs: slots(aggs, crate::slots::Aggregate::EMPTY),
             #[cfg(feature = "two-level")]
             coarse: slots(
-                crate::precond::coarse_blocks_for(aggs),
+                crate::slots::coarse_blocks_for(aggs),
                 crate::slots::CoarseBlock::EMPTY,
             ),
         }

@@ -31,7 +31,6 @@
 //!   the share of the body that a pressure wave crosses in one step: all of
 //!   a stiff body over a long step, none of a body without stiffness.
 
-use crate::error::Parameter;
 use crate::math::{axpy, dot, is_finite3, normalize, Vec3};
 #[cfg(feature = "friction")]
 use crate::math::{scale, sub};
@@ -114,7 +113,7 @@ impl Friction {
             && (kinetic_coefficient > 0.0 || static_coefficient == 0.0);
         if !ok {
             return Err(crate::Error::InvalidParameter {
-                parameter: Parameter::Friction,
+                parameter: crate::error::Parameter::Friction,
             });
         }
         Ok(Self {

@@ -486,6 +486,7 @@ pub(crate) fn lands(ground: Ground, n: &Node, u: Vec3) -> bool {
 }
 
 /// Whether any node ends below the ground (end displacements in `d`).
+#[cfg(feature = "free-rotation")]
 #[inline(always)]
 pub(crate) fn below(ground: Ground, nodes: &[Node], work: &[NodeWork]) -> bool {
     let _ = (ground, nodes, work);
@@ -568,7 +569,6 @@ pub(crate) fn impulse(
     let _ = (ground, &probes, n, &w, relaxed, &support);
     #[cfg(feature = "ground")]
     {
-        let h = ground.h;
         #[allow(unused_mut)] // only friction moves them
         let (mut u, mut v) = (u, v);
         let holding = Obstacles::new(ground, probes).holding(n);
@@ -584,6 +584,7 @@ pub(crate) fn impulse(
             let mut impulse = scale(c.normal, -kept);
             #[cfg(feature = "friction")]
             {
+                let h = ground.h;
                 let dv;
                 (impulse, dv) = friction(&c, n, w, impulse, v, kept, relaxed, h);
                 v = add(v, dv);

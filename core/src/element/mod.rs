@@ -262,7 +262,7 @@ impl Element {
     #[inline(always)]
     #[must_use]
     pub(crate) fn lame(&self, per_young: [f32; 2]) -> [f32; 2] {
-        crate::material::lame(self.stiffness, per_young)
+        lame(self.stiffness, per_young)
     }
 }
 
@@ -311,6 +311,18 @@ pub(crate) fn current_edges<T: Real>(rest: &[[T; 3]; 3], du: &[[T; 3]; 3]) -> [[
         add(rest[0], du[0]),
         add(rest[1], du[1]),
         add(rest[2], du[2]),
+    ]
+}
+
+/// The coefficients `[λ', μ'] = [λ, μ] / (36 V₀)` (Pa/m³) used by the kernels,
+/// from an element's [`element_stiffness`] and [`lame_per_young`].
+/// For one element or one per lane.
+#[inline(always)]
+#[must_use]
+pub(crate) fn lame<T: Real>(stiffness: T, per_young: [f32; 2]) -> [T; 2] {
+    [
+        T::splat(per_young[0]) * stiffness,
+        T::splat(per_young[1]) * stiffness,
     ]
 }
 

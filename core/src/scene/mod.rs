@@ -2,6 +2,7 @@
 
 #[cfg(feature = "ground")]
 mod ground;
+mod settings;
 #[cfg(feature = "tool")]
 mod tool;
 

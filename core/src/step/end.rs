@@ -10,7 +10,6 @@ use super::Ctx;
 use crate::contact::{self, Carry, Held, Probes};
 use crate::element::ElementBlock;
 use crate::math::{add, finite_probe, sub, Vec3};
-use crate::rigid::{reach, Rigid};
 use crate::state::{Header, Lists, PreSlots};
 use crate::storage::{Node, NodeWork, FIXED};
 use crate::StepError;
@@ -64,8 +63,10 @@ pub(super) fn turn(
         // The body at the step's start, with its inertia: the
         // preconditioner's when it has one (the nodes have not moved since).
         let known = solved.rigid.filter(|b| b.inertia.is_some());
-        let body = known.or_else(|| Rigid::new(nodes, true));
-        let share = |body: &Rigid| reach(body, elems, n_elems, ctx.per_young, ctx.h);
+        let body = known.or_else(|| crate::rigid::Rigid::new(nodes, true));
+        let share = |body: &crate::rigid::Rigid| {
+            crate::rigid::reach(body, elems, n_elems, ctx.per_young, ctx.h)
+        };
         if crate::turn::turn(body, nodes, work, ctx.h, share) {
             end.below = contact::below(ctx.ground, nodes, work);
         }
@@ -91,10 +92,12 @@ pub(super) fn impact(
     let _ = (ctx, held, carry, &end, nodes, elems, n_elems, &work);
     #[cfg(feature = "ground")]
     if let (Some(g), true, false) = (ctx.ground.plane, end.below, ctx.any_fixed) {
-        let share = |body: &Rigid| reach(body, elems, n_elems, ctx.per_young, ctx.h);
+        let share = |body: &crate::rigid::Rigid| {
+            crate::rigid::reach(body, elems, n_elems, ctx.per_young, ctx.h)
+        };
         let body = match carry.resting() {
             Some(body) => Some(body),
-            None => Rigid::new(nodes, true),
+            None => crate::rigid::Rigid::new(nodes, true),
         };
         if let Some(body) = body {
             let resting = held.ground > 0;

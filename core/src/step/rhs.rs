@@ -83,6 +83,7 @@ pub(super) fn residual(
 pub(super) struct Energy {
     /// Kinetic, elastic, gravity's and the loads', and the tool spring's
     /// with its target.
+    #[cfg_attr(not(feature = "energy-guard"), allow(dead_code))]
     pub(super) energy: f32,
     /// The same with the tool spring counted with the target of the
     /// reference: what the check compares.

@@ -105,6 +105,7 @@ pub(super) struct Solved {
     pub(super) outcome: CgOutcome,
     /// The isolated body at the step's start, with its inertia, when the
     /// preconditioner needed it (the nodes have not moved since).
+    #[cfg_attr(not(feature = "free-rotation"), allow(dead_code))]
     pub(super) rigid: Option<Rigid>,
 }
 
