@@ -43,10 +43,6 @@
 //!
 //! docs/capi.md's step-time figures come from this program.
 
-#[cfg(feature = "probe")]
-#[path = "shared/probe_path.rs"]
-mod probe_path;
-
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
@@ -246,7 +242,7 @@ impl Press {
     /// The sphere's centre at the end of step `step` (1-based), as
     /// `haptic_loop.c`'s `probe_path`.
     fn path(&self, step: u32) -> [f32; 3] {
-        probe_path::path(self.start, self.deepest, step)
+        corofem_probe_path::path(self.start, self.deepest, step)
     }
 
     /// One period: the sphere moved along the path, a step, and the force

@@ -10,9 +10,6 @@ use corofem_capi::{Material, Settings, Stats, Status};
 use corofem_core::{BoxMesh, BuildOptions};
 
 mod common;
-#[cfg(feature = "probe")]
-#[path = "../examples/shared/probe_path.rs"]
-mod probe_path;
 
 /// One scene of the C example, exactly as it builds it.
 struct Def {
@@ -375,7 +372,7 @@ mod probe_scene {
     }
 
     /// The C example's `probe_path`: the centre at the end of step `step`.
-    use super::probe_path::path;
+    use corofem_probe_path::path;
 
     /// What a run records: the hash, the final force on the probe, its
     /// largest push against the pressing direction, and the sum of its

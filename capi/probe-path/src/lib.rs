@@ -1,6 +1,8 @@
 //! The probe's path in the haptic loops' liver press, as
-//! `haptic_loop.c`'s `probe_path`: shared by `rt_loop` and the loop tests,
-//! which check the Rust and C loops step alike.
+//! `capi/examples/haptic_loop.c`'s `probe_path`: the `rt_loop` example and
+//! the loop tests (`capi/tests/haptic_loop.rs`, which check the Rust and C
+//! loops step alike) both follow it.
+#![no_std]
 
 /// The sphere's centre at the end of step `step` (1-based), from `c0`
 /// above the body to `b` at its deepest: down over 300 steps, 15 mm along
