@@ -76,7 +76,7 @@ const FLOOR: f32 = f32::EPSILON * f32::EPSILON;
 /// is below `tolerance`, but only where `certify(work)` accepts the iterate; until
 /// then it goes on, to at most `cap` iterations (`cap ≥ max_iterations`).
 /// The step's certificate is that the truncation adds no energy
-/// (`step.rs`); a solve that needs no such check passes `|_| true`, and
+/// (`step::solve`); a solve that needs no such check passes `|_| true`, and
 /// then runs exactly as the plain algorithm.
 ///
 /// Loops are fused where the order of operations allows it, so the result

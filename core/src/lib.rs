@@ -8,21 +8,30 @@
 //!
 //! ## The step
 //!
+//! One linearised implicit Euler step, as a pipeline of named stages (each a
+//! function of its own module; a model whose feature is off compiles its
+//! stages to nothing):
+//!
 //! ```text
-//!  nodes (x₀ + u, v)                 elements (rest frame, E/(36 V₀))
-//!        │                                   │
-//!        └──► element pass ◄─────────────────┘   QR frame → B(current) → f_el,
-//!                 │                              world gradients g, −K v
-//!                 ▼
-//!            node pass: b = h (f_el + f_ext + m g − α_M M v) + h(α_K + h)(−K v)
-//!                 │       preconditioner M, fixed nodes, ground contacts, tool
-//!                 ▼
-//!            CG: A Δv = b, A = (1 + hα_M) M + h(α_K + h) K     (cg_iterations,
-//!                 │   more until the energy certificate holds;
-//!                 │   K d element by element from g, never assembled)
-//!                 ▼
-//!            v ← v + Δv, u ← u + h v  (only if finite), ground push-out,
-//!            tool force
+//!  detect     contact   which obstacle (ground, probe) holds each node; stick or slide
+//!  carry      contact   a body the ground holds: its carried guess, its rigid lift
+//!  guess      step      free fall, warm start, held normals; the product's input
+//!  element    pass      QR frame → B(current) → f_el, world gradients g, −K (v + x₀)
+//!  prepare    precond   node blocks, aggregates' rotations, coarse factor
+//!  residual   step      b = h (f_el + f_ext + m g − α_M M v) + h(α_K + h)(−K v) − A x₀
+//!                       (tool spring, loads, kinetic friction, the guard's ledger)
+//!  guard      guard     an energy excess taken out of the starting velocity
+//!  solve      cg        A Δv = b, A = (1 + hα_M) M + h(α_K + h) K, filtered by S
+//!                       (cg_iterations, more until the energy certificate holds,
+//!                       else a Galerkin step; K d element by element, never
+//!                       assembled); the free body's angular momentum kept
+//!  relax      contact   a push out of an obstacle taken back out of the velocity
+//!  candidates step      v' = v + Δv, u' = u + h v'
+//!  turn       turn      a free body's rotation made a rotation
+//!  impact     contact   a landing body stopped as a whole
+//!  impulses   contact   landings, contact and friction impulses, support and tool
+//!                       forces; the step is refused unless all is finite
+//!  commit     step      the state, the contacts' flags, the guard's reference
 //! ```
 //!
 //! ## Physical plausibility

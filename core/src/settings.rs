@@ -178,7 +178,7 @@ impl Settings {
 
     /// All zero bits (`dt = 0`, not valid settings): what an empty scene's
     /// header holds in their place, so that it can be zero-initialised
-    /// (`scene::Header`). `Qr` is the method whose discriminant is 0.
+    /// (`state::Header`). `Qr` is the method whose discriminant is 0.
     pub(crate) const ZERO: Self = Self {
         method: Method::Qr,
         dt: 0.0,

@@ -119,7 +119,7 @@ pub struct NodeWork {
     /// Inverse of the preconditioner's diagonal (0 on fixed nodes).
     pub(crate) inv_p: f32,
     /// The step's velocity change, kept while the solve of a push out of
-    /// the ground runs in `x` (`step::relax`).
+    /// the ground runs in `x` (`contact::relax`).
     #[cfg(feature = "ground")]
     pub(crate) dv: Vec3,
     /// The step's contact impulse along the ground's normal, `n·r`

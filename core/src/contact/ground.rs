@@ -21,7 +21,7 @@
 //! at most the distance it travels in that step.
 //!
 //! A body that no fixed node holds is also treated as a whole, where a
-//! truncated solve cannot spread a contact through it (`step.rs`):
+//! truncated solve cannot spread a contact through it (`contact::carry`, `contact::impact`):
 //! * **Carried.** A step with held nodes starts its solve from the rigid
 //!   motion that gives them their prescribed normal velocity, not from the
 //!   free fall: a resting body starts at rest and the solve finds its sag.

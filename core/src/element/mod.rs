@@ -37,7 +37,7 @@ compile_error!(
 /// compiled in is [`Error::MethodNotCompiled`](crate::Error::MethodNotCompiled)
 /// and leaves the scene unchanged; [`Method::COMPILED`] lists the others.
 // The discriminants are explicit because an all-zero `Settings` (the header
-// of a `static` scene, see `scene::Header`) holds `Qr`: its bits are zero.
+// of a `static` scene, see `state::Header`) holds `Qr`: its bits are zero.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum Method {
@@ -398,7 +398,7 @@ mod tests {
         }
         assert_eq!(Method::from_name("sofa"), None);
         assert!(Method::DEFAULT.is_compiled());
-        // An all-zero `Settings` holds `Qr` (see `scene::Header`).
+        // An all-zero `Settings` holds `Qr` (see `state::Header`).
         assert_eq!(Method::Qr as u8, 0);
     }
 }

@@ -176,7 +176,7 @@ fn from_frame<const CURRENT_B: bool>(fr: &Frame, rest: &Local, lame: [f32; 2]) -
 /// instead (free of net torque, but not the forces' derivative) let a
 /// tumbling bunny landing on the ground gain 1.4 kJ of elastic energy and
 /// end with 19 elements inverted. The product's net torque is the step's
-/// to correct (`step::keep_angular_momentum`).
+/// to correct (`rigid::keep_angular_momentum`).
 #[cfg(feature = "qr-invertible")]
 #[inline(always)]
 #[must_use]
