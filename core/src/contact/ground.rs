@@ -103,7 +103,7 @@ impl Friction {
     /// and a kinetic one `kinetic_coefficient` (the ratio while it slides).
     /// Both must be finite and ≥ 0, the static one at least the kinetic
     /// one, and the kinetic one > 0 if the static one is (a contact that
-    /// slips slides on by its kinetic force): [`Parameter::Friction`]
+    /// slips slides on by its kinetic force): [`Parameter::Friction`](crate::Parameter::Friction)
     /// otherwise.
     pub fn new(static_coefficient: f32, kinetic_coefficient: f32) -> Result<Self, crate::Error> {
         let ok = static_coefficient.is_finite()
