@@ -28,11 +28,12 @@ pub(super) struct End {
 #[inline(always)]
 pub(super) fn candidates(ctx: &Ctx, held: &Held, nodes: &[Node], work: &mut [NodeWork]) -> End {
     let relaxed = held.relaxed();
+    let (h, ground) = (ctx.h, ctx.ground);
     let mut below = false;
     for (n, w) in nodes.iter().zip(work.iter_mut()) {
         let v = add(n.v, w.x);
-        let u = contact::displaced(n, w, v, relaxed, ctx.h);
-        below |= contact::lands(ctx.ground, n, u);
+        let u = contact::displaced(n, w, v, relaxed, h);
+        below |= contact::lands(ground, n, u);
         w.set_end(u, v);
     }
     End {
@@ -139,6 +140,7 @@ pub(super) fn impulses(
     work: &mut [NodeWork],
 ) -> Result<Forces, StepError> {
     let relaxed = held.relaxed();
+    let ground = ctx.ground;
     let spring = hdr.spring();
     let mut support = end.support;
     let mut fixed_r = fixed_r;
@@ -153,7 +155,7 @@ pub(super) fn impulses(
     let mut probe = 0.0f32;
     for (n, w) in nodes.iter().zip(work.iter_mut()) {
         let (u, v) = w.end();
-        let (v, lands) = contact::land(ctx.ground, probes, n, u, v, &mut support);
+        let (v, lands) = contact::land(ground, probes, n, u, v, &mut support);
         landed |= lands;
         // After `relax` (which kept the step's `Σ r` over the fixed nodes),
         // `r` is the push's residual, whose impulses only moved positions.
@@ -164,7 +166,7 @@ pub(super) fn impulses(
                 add(fixed_r, w.r)
             };
         }
-        let (u, v) = contact::impulse(ctx.ground, probes, n, w, (u, v), relaxed, &mut support);
+        let (u, v) = contact::impulse(ground, probes, n, w, (u, v), relaxed, &mut support);
         #[cfg(feature = "tool")]
         if spring.holds(n) {
             // The body pulls the tool with minus the spring force.

@@ -84,7 +84,7 @@ pub(super) fn guess(
     nodes: &[Node],
     work: &mut [NodeWork],
 ) -> Guess {
-    let (h, isolated) = (ctx.h, ctx.isolated);
+    let (h, isolated, fall) = (ctx.h, ctx.isolated, ctx.fall);
     let warm = ctx.s.warm_start && held.held == 0 && !hdr.guess_stale;
     // An isolated body's rigid motions: translations, which `K` annihilates
     // bit for bit in every method, and, for `Qr`, whose `B` is that of the
@@ -129,7 +129,7 @@ pub(super) fn guess(
             w.x = [0.0; 3];
         }
         if !keep {
-            w.x = add(w.x, ctx.fall);
+            w.x = add(w.x, fall);
         }
         w.x = carry.guess(obstacles, n, w.x, h);
         nonzero |= (w.x[0].to_bits() | w.x[1].to_bits() | w.x[2].to_bits()) << 1;

@@ -23,6 +23,7 @@ pub(super) fn residual(
     work: &mut [NodeWork],
 ) -> Ledger {
     let (s, h) = (ctx.s, ctx.h);
+    let (mass_coef, k_coef) = (ctx.mass_coef, ctx.k_coef);
     let spring = hdr.spring();
     let obstacles = Obstacles::new(ctx.ground, probes);
     #[cfg(feature = "tool")]
@@ -48,7 +49,7 @@ pub(super) fn residual(
         f = obstacles.drag(n, w, f);
         f = axpy(f, -s.rayleigh_mass * m, n.v);
         #[allow(unused_mut)] // only the tool adds to it
-        let mut p = ctx.mass_coef * m;
+        let mut p = mass_coef * m;
         #[cfg(feature = "tool")]
         if spring.holds(n) {
             // Implicit spring: f += k (anchor − x) − h k v, A += h² k.
@@ -65,7 +66,7 @@ pub(super) fn residual(
             f = axpy(f, -h * k, n.v);
             p += h * h * k;
         }
-        w.r = axpy(scale(f, h), ctx.k_coef, w.q);
+        w.r = axpy(scale(f, h), k_coef, w.q);
         if n.flags & FIXED != 0 {
             w.inv_p = 0.0;
             continue;
