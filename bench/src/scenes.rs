@@ -183,6 +183,7 @@ impl SceneDef {
                 gravity: self.gravity,
                 // As in a default scene.
                 energy_guard: true,
+                free_rotation: true,
             })
             .expect("settings");
         scene

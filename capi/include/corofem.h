@@ -191,6 +191,12 @@ typedef struct {
     // (the host default), else 0; nonzero without it is refused
     // (`COROFEM_INVALID_ARGUMENT`).
     uint32_t energy_guard;
+    // Nonzero: free rotation (a body that nothing holds and that moves as
+    // one over a step turns by a rigid rotation instead of moving along its
+    // tangents, which would stretch a spinning body). Default 1 in a
+    // library built with the feature `free-rotation` (the host default),
+    // else 0; nonzero without it is refused (`COROFEM_INVALID_ARGUMENT`).
+    uint32_t free_rotation;
 } corofem_settings;
 
 // What the last step did.
@@ -382,7 +388,9 @@ corofem_status corofem_counts(corofem_scene *scene, size_t *out_nodes, size_t *o
 // Writes the default settings (no scene needed): QR with inverted elements
 // turned back (`qr-invertible`), dt = 1 ms, the two-level preconditioner with
 // 4 CG iterations from a warm start, no early stop, no damping, gravity
-// −9.81 m/s² along z, the energy guard on.
+// −9.81 m/s² along z, the energy guard and free rotation on; what the
+// library lacks replaced by what it has (QR, the lumped mass with 5
+// iterations from a cold start, the guard or free rotation off).
 //
 // # Safety
 //

@@ -129,6 +129,12 @@ pub struct Settings {
     /// (the host default), else 0; nonzero without it is refused
     /// (`COROFEM_INVALID_ARGUMENT`).
     pub energy_guard: u32,
+    /// Nonzero: free rotation (a body that nothing holds and that moves as
+    /// one over a step turns by a rigid rotation instead of moving along its
+    /// tangents, which would stretch a spinning body). Default 1 in a
+    /// library built with the feature `free-rotation` (the host default),
+    /// else 0; nonzero without it is refused (`COROFEM_INVALID_ARGUMENT`).
+    pub free_rotation: u32,
 }
 
 impl Settings {
@@ -146,6 +152,7 @@ impl Settings {
             gravity: s.gravity,
             preconditioner: preconditioner_code(s.preconditioner),
             energy_guard: u32::from(s.energy_guard),
+            free_rotation: u32::from(s.free_rotation),
         }
     }
 
@@ -162,6 +169,7 @@ impl Settings {
             preconditioner: preconditioner_from_code(self.preconditioner)?,
             gravity: self.gravity,
             energy_guard: self.energy_guard != 0,
+            free_rotation: self.free_rotation != 0,
         })
     }
 }

@@ -87,6 +87,7 @@ struct RawSolver {
     static_solve: Option<bool>,
     warm_start: Option<bool>,
     energy_guard: Option<bool>,
+    free_rotation: Option<bool>,
     preconditioner: Option<String>,
     newton_iterations: Option<i64>,
     newton_tolerance: Option<f64>,
@@ -927,6 +928,7 @@ impl Ctx<'_> {
             rayleigh_stiffness,
             warm_start: s.warm_start.unwrap_or(d.warm_start),
             energy_guard: s.energy_guard.unwrap_or(d.energy_guard),
+            free_rotation: s.free_rotation.unwrap_or(d.free_rotation),
             preconditioner,
             gravity,
         };

@@ -321,6 +321,8 @@ pub enum Parameter {
     DeviceState,
     /// The output slice of `Scene::update_surface` or `vertex_normals`.
     SurfaceOut,
+    /// `Settings::free_rotation`.
+    FreeRotation,
 }
 
 impl fmt::Display for Parameter {
@@ -388,6 +390,9 @@ impl fmt::Display for Parameter {
             }
             Parameter::EnergyGuard => {
                 "`energy_guard`: this build has no energy guard (cargo feature `energy-guard`)"
+            }
+            Parameter::FreeRotation => {
+                "`free_rotation`: this build has no free rotation (cargo feature `free-rotation`)"
             }
         })
     }

@@ -87,7 +87,7 @@
 //! | `qr-rest-b` | SOFA's QR method with `B` frozen at rest: a demonstration of ghost torques |
 //! | `ground`, `tool`, `loads`, `statics`, `diagnostics` | ground contact, haptic tool, constant nodal forces, static solve, energies and momenta (and [`StepStats::elastic_energy`]) |
 //! | `energy-guard` (default) | the energy guard ([`Settings::energy_guard`]): a step takes out of the body's deformation the energy the previous step made beyond the work of moving the tool's target, while nothing else did work on it and elements were inverted |
-//! | `free-rotation` (default) | a body that nothing holds (no fixed node, tool or contact) and that moves as one over a step turns by a rigid rotation, the implicit midpoint rule of its rotation, instead of moving along its tangents, which stretches a spinning body by `(h \|ω\|)²/2` a step; keeps the momenta and the rigid kinetic energy |
+//! | `free-rotation` (default) | a body that nothing holds (no fixed node, tool or contact) and that moves as one over a step turns by a rigid rotation, the implicit midpoint rule of its rotation, instead of moving along its tangents, which stretches a spinning body by `(h \|ω\|)²/2` a step; keeps the momenta and the rigid kinetic energy ([`Settings::free_rotation`]) |
 //! | `two-level` (default) | the block-Jacobi and two-level preconditioners ([`Preconditioner`]); two-level, 4 CG iterations from a warm start, is then the default solver |
 //! | `probe` | rigid spheres and capsules pressing on the body ([`Scene::step_with_probes`]; brings `ground`) |
 //! | `coupling` | a haptic virtual coupling between a device and a probe ([`Coupling`]; brings `probe`) |

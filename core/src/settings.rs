@@ -137,21 +137,64 @@ pub struct Settings {
     /// docs/bench.md). It costs the elastic energy's sum in the
     /// force pass and one pass over the nodes; a correction, which a step
     /// that makes no energy never needs, one pass more. Needs the feature
-    /// `energy-guard` (default on in builds with it, else off; `true`
-    /// without it is refused). Default: on where compiled.
+    /// `energy-guard` (`true` without it is refused). Default on.
     pub energy_guard: bool,
+    /// Free rotation: a body that nothing holds (no fixed node, tool or
+    /// contact) and that moves as one over a step (a pressure wave crosses
+    /// it within the step: stiff, or a long step) turns by a rigid
+    /// rotation, the implicit midpoint rule of its rotation, instead of
+    /// moving along its tangents, which stretches a body spinning at `ω`
+    /// by `(h |ω|)²/2` a step. Keeps the linear and angular momentum and the
+    /// rigid kinetic energy; the body's deformation turns with it. Softer
+    /// bodies and shorter steps keep the tangent update, and so does
+    /// `Method::Linear`, whose elements are not invariant under rotations.
+    /// It costs a pass over the nodes (two with a turn) in the steps of a
+    /// free body. Needs the feature `free-rotation` (`true` without it is
+    /// refused). Default on.
+    pub free_rotation: bool,
 }
 
 impl Settings {
-    /// The documented defaults: [`Settings::with_preconditioner`] of
-    /// [`Preconditioner::DEFAULT`]. A storage without the two-level
-    /// preconditioner's slots (a plain [`StaticScene`](crate::StaticScene))
-    /// refuses them where the feature `two-level` is on
-    /// ([`Error::PreconditionerUnavailable`](crate::Error::PreconditionerUnavailable)); start such a scene's settings
-    /// from [`Scene::default_settings`](crate::Scene::default_settings).
+    /// The documented defaults, the same in every build: `QrInvertible`,
+    /// the two-level preconditioner with 4 CG iterations from a warm start,
+    /// the energy guard and free rotation on
+    /// ([`Settings::with_preconditioner`] of `TwoLevel`).
+    ///
+    /// A build without a feature they need refuses them
+    /// ([`Error::MethodNotCompiled`](crate::Error::MethodNotCompiled),
+    /// [`Error::InvalidParameter`](crate::Error::InvalidParameter)), and a
+    /// storage without the two-level preconditioner's slots (a plain
+    /// [`StaticScene`](crate::StaticScene)) refuses the preconditioner
+    /// ([`Error::PreconditionerUnavailable`](crate::Error::PreconditionerUnavailable)).
+    /// [`Settings::compiled`] gives the nearest settings a build runs, and
+    /// [`Scene::default_settings`](crate::Scene::default_settings) those
+    /// a scene's storage runs: start a scene's settings from it.
     #[must_use]
     pub const fn new() -> Self {
-        Self::with_preconditioner(Preconditioner::DEFAULT)
+        Self::with_preconditioner(Preconditioner::TwoLevel)
+    }
+
+    /// These settings with what this build lacks replaced by what it has: a
+    /// method that is not compiled in by [`Method::DEFAULT`], a
+    /// preconditioner that is not by the lumped mass (with its budget,
+    /// [`Settings::with_preconditioner`]), and the energy guard and free
+    /// rotation off where their features are. Settings the build runs are
+    /// returned unchanged.
+    #[must_use]
+    pub const fn compiled(self) -> Self {
+        let mut s = self;
+        if !s.method.is_compiled() {
+            s.method = Method::DEFAULT;
+        }
+        if !s.preconditioner.is_compiled() {
+            let mass = Self::with_preconditioner(Preconditioner::Mass);
+            s.preconditioner = mass.preconditioner;
+            s.cg_iterations = mass.cg_iterations;
+            s.warm_start = mass.warm_start;
+        }
+        s.energy_guard &= cfg!(feature = "energy-guard");
+        s.free_rotation &= cfg!(feature = "free-rotation");
+        s
     }
 
     /// The documented defaults with preconditioner `pre` and its budget:
@@ -163,7 +206,7 @@ impl Settings {
     pub const fn with_preconditioner(pre: Preconditioner) -> Self {
         let stiffness_aware = !matches!(pre, Preconditioner::Mass);
         Self {
-            method: Method::DEFAULT,
+            method: Method::QrInvertible,
             dt: 1.0e-3,
             cg_iterations: if stiffness_aware { 4 } else { 5 },
             cg_tolerance: 0.0,
@@ -172,7 +215,8 @@ impl Settings {
             warm_start: stiffness_aware,
             preconditioner: pre,
             gravity: [0.0, 0.0, -9.81],
-            energy_guard: cfg!(feature = "energy-guard"),
+            energy_guard: true,
+            free_rotation: true,
         }
     }
 
@@ -190,6 +234,7 @@ impl Settings {
         preconditioner: Preconditioner::Mass,
         gravity: [0.0; 3],
         energy_guard: false,
+        free_rotation: false,
     };
 
     /// The most CG iterations a step runs: `2 cg_iterations + 16`. The

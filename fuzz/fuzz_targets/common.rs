@@ -110,6 +110,7 @@ pub fn settings(u: &mut Unstructured) -> Result<Settings> {
         any3(u)?
     };
     let energy_guard = u.arbitrary()?;
+    let free_rotation = u.arbitrary()?;
     Ok(Settings {
         method,
         dt,
@@ -121,6 +122,7 @@ pub fn settings(u: &mut Unstructured) -> Result<Settings> {
         preconditioner,
         gravity,
         energy_guard,
+        free_rotation,
     })
 }
 

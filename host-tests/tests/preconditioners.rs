@@ -34,6 +34,7 @@ fn hanging(mesh: &CoreMesh, pre: Preconditioner, cg_iterations: u32, warm: bool)
         preconditioner: pre,
         gravity: [0.0, -9.81, 0.0],
         energy_guard: true,
+        free_rotation: true,
     })
     .unwrap();
     s

@@ -199,7 +199,7 @@ fn settings() -> impl Strategy<Value = Settings> + Clone {
         prop_oneof![3 => Just(0.0f32), 1 => log_uniform(-8.0, 0.0)],
         damping.clone(),
         damping,
-        (any::<bool>(), 0usize..3, any::<bool>()),
+        (any::<bool>(), 0usize..3, any::<bool>(), any::<bool>()),
         gravity,
     )
         .prop_map(
@@ -210,7 +210,7 @@ fn settings() -> impl Strategy<Value = Settings> + Clone {
                 cg_tolerance,
                 rm,
                 rk,
-                (warm_start, pre, guard),
+                (warm_start, pre, guard, free_rotation),
                 gravity,
             )| {
                 Settings {
@@ -224,6 +224,7 @@ fn settings() -> impl Strategy<Value = Settings> + Clone {
                     preconditioner: Preconditioner::VARIANTS[pre],
                     gravity,
                     energy_guard: guard,
+                    free_rotation,
                 }
             },
         )

@@ -66,6 +66,9 @@ pub const fn settings_with(pre: Preconditioner) -> Settings {
         // Firmware images leave the feature out (its energy sum costs
         // ~48 instructions per tetrahedron-step).
         energy_guard: false,
+        // The beam is clamped: free rotation never applies (and firmware
+        // images leave the feature out).
+        free_rotation: false,
         // The budget (5 or 4), tolerance 0 and warm start (off for the
         // mass) of the preconditioner.
         ..Settings::with_preconditioner(pre)

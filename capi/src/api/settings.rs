@@ -9,7 +9,9 @@ use crate::types::{method_from_code, Settings};
 /// Writes the default settings (no scene needed): QR with inverted elements
 /// turned back (`qr-invertible`), dt = 1 ms, the two-level preconditioner with
 /// 4 CG iterations from a warm start, no early stop, no damping, gravity
-/// −9.81 m/s² along z, the energy guard on.
+/// −9.81 m/s² along z, the energy guard and free rotation on; what the
+/// library lacks replaced by what it has (QR, the lumped mass with 5
+/// iterations from a cold start, the guard or free rotation off).
 ///
 /// # Safety
 ///
@@ -19,7 +21,7 @@ pub unsafe extern "C" fn corofem_settings_default(out_settings: *mut Settings) -
     status((|| {
         // SAFETY: the caller's contract.
         let o = unsafe { out(out_settings, None)? };
-        *o = Settings::from_core(&corofem_core::Settings::default());
+        *o = Settings::from_core(&corofem_core::Settings::new().compiled());
         Ok(())
     })())
 }

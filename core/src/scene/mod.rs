@@ -404,23 +404,23 @@ impl<S: Storage> Scene<S> {
         }
     }
 
-    /// The default settings for this scene's storage: [`Settings::new`]
-    /// where the storage holds the default preconditioner's slots (a
-    /// [`VecScene`], or storage made with them), else
-    /// [`Settings::with_preconditioner`]`(Preconditioner::Mass)`, the
-    /// paper's CG. What the scene steps with until
-    /// [`Scene::set_settings`]; start custom settings from it
+    /// The default settings this build and this scene's storage run:
+    /// [`Settings::new`] made [`Settings::compiled`], with the lumped mass
+    /// (the paper's CG, [`Settings::with_preconditioner`]) where the storage
+    /// holds no two-level preconditioner's slots (a plain [`StaticScene`];
+    /// a [`VecScene`] and storage made with them do). What the scene steps
+    /// with until [`Scene::set_settings`]; start custom settings from it
     /// (`Settings { dt, ..scene.default_settings() }`) to keep what the
-    /// storage can run.
+    /// build and the storage can run.
     #[must_use]
     pub fn default_settings(&self) -> Settings {
         *self.defaults()
     }
 
     fn defaults(&self) -> &'static Settings {
-        const DEFAULTS: Settings = Settings::new();
-        const MASS: Settings = Settings::with_preconditioner(Preconditioner::Mass);
-        if self.supports(Preconditioner::DEFAULT) {
+        const DEFAULTS: Settings = Settings::new().compiled();
+        const MASS: Settings = Settings::with_preconditioner(Preconditioner::Mass).compiled();
+        if self.supports(DEFAULTS.preconditioner) {
             &DEFAULTS
         } else {
             &MASS
@@ -1241,12 +1241,13 @@ mod tests {
         #[cfg(feature = "loads")]
         assert_eq!(h.n_loads, 0);
         // A storage without preconditioner slots steps with the paper's
-        // CG; the rest of the defaults are `Settings::new()`'s.
+        // CG; the rest of the defaults are `Settings::new()`'s, as far as
+        // the build has them.
         let defaults = Cube::new().default_settings();
         assert_eq!(*Cube::new().settings(), defaults);
         assert_eq!(
             defaults,
-            Settings::with_preconditioner(crate::Preconditioner::Mass)
+            Settings::with_preconditioner(crate::Preconditioner::Mass).compiled()
         );
         assert_eq!(
             defaults,
@@ -1254,8 +1255,41 @@ mod tests {
                 preconditioner: crate::Preconditioner::Mass,
                 cg_iterations: 5,
                 warm_start: false,
-                ..Settings::new()
+                ..Settings::new().compiled()
             }
+        );
+    }
+
+    /// The defaults are the same in every build; made `compiled`, every
+    /// build runs them, and `compiled` keeps settings the build runs.
+    #[test]
+    fn the_defaults_are_the_same_in_every_build_and_compiled_runs_them() {
+        let d = Settings::new();
+        assert_eq!(
+            (d.method, d.preconditioner, d.cg_iterations, d.warm_start),
+            (Method::QrInvertible, Preconditioner::TwoLevel, 4, true)
+        );
+        assert!(d.energy_guard && d.free_rotation);
+        assert_eq!(
+            d.validate().is_ok(),
+            cfg!(all(
+                feature = "qr-invertible",
+                feature = "energy-guard",
+                feature = "free-rotation"
+            ))
+        );
+        let c = d.compiled();
+        assert_eq!(c.validate(), Ok(()));
+        assert!(c.preconditioner.is_compiled());
+        assert_eq!(c.compiled(), c);
+        assert_eq!(
+            c == d,
+            cfg!(all(
+                feature = "qr-invertible",
+                feature = "two-level",
+                feature = "energy-guard",
+                feature = "free-rotation"
+            ))
         );
     }
 
@@ -1277,7 +1311,7 @@ mod tests {
         // asking for it is refused and changes nothing.
         if !given.supports(crate::Preconditioner::DEFAULT) {
             assert_eq!(
-                given.set_settings(Settings::new()),
+                given.set_settings(Settings::new().compiled()),
                 Err(Error::PreconditionerUnavailable {
                     preconditioner: crate::Preconditioner::DEFAULT
                 })

@@ -36,6 +36,9 @@ impl Settings {
         if self.energy_guard && !cfg!(feature = "energy-guard") {
             return bad(Parameter::EnergyGuard);
         }
+        if self.free_rotation && !cfg!(feature = "free-rotation") {
+            return bad(Parameter::FreeRotation);
+        }
         Ok(())
     }
 }

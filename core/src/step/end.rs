@@ -44,7 +44,7 @@ pub(super) fn candidates(ctx: &Ctx, held: &Held, nodes: &[Node], work: &mut [Nod
 
 /// The turn stage: an isolated body turns over the step as a rigid
 /// rotation, not along its tangents (`turn::turn`, feature
-/// `free-rotation`). (`Linear`'s elements are
+/// `free-rotation`, [`Settings::free_rotation`](crate::Settings::free_rotation)). (`Linear`'s elements are
 /// not invariant under rotations: its tangent update is the one that
 /// leaves them unstrained.)
 #[allow(clippy::too_many_arguments)]
@@ -60,7 +60,7 @@ pub(super) fn turn(
 ) {
     let _ = (ctx, solved, &end, nodes, elems, n_elems, &work);
     #[cfg(feature = "free-rotation")]
-    if ctx.isolated && ctx.s.method != crate::Method::Linear {
+    if ctx.isolated && ctx.s.free_rotation && ctx.s.method != crate::Method::Linear {
         // The body at the step's start, with its inertia: the
         // preconditioner's when it has one (the nodes have not moved since).
         let known = solved.rigid.filter(|b| b.inertia.is_some());

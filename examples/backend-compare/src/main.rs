@@ -80,7 +80,7 @@ fn run(out: &str) {
     let settings = Settings {
         dt: 1e-3,
         cg_iterations: 10,
-        ..Settings::default()
+        ..Settings::new().compiled()
     };
     let sag = scene(|s, x| {
         let clamp: Vec<u32> = (0..x.len() as u32)
