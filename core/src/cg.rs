@@ -56,310 +56,313 @@ pub(crate) struct CgOutcome {
 /// produces round-off and, eventually, slow subnormal numbers.
 const FLOOR: f32 = f32::EPSILON * f32::EPSILON;
 
-/// Runs at most `max_iterations` CG iterations from `work.x` with `work.r`
-/// set to `b − A x`. `project(node, v)` applies the filter `S` of a node;
-/// `apply(work)` finds every `work.q` zero, must set it to `A work.d`, and
-/// returns `dᵀq = Σ dᵢ·qᵢ` summed in node order.
-///
-/// The preconditioner is `project(i, inv_pᵢ rᵢ)` node by node, fused into
-/// the update loop, or with `whole`, a pass that sets every `q` to the
-/// preconditioned residual `z` and returns `rᵀz` summed in node order.
-///
-/// The residual is measured in the preconditioner's norm `sqrt(rᵀz)`, or,
-/// with `whole` and `scalar_norm`, in the norm `sqrt(rᵀ S P₀⁻¹ S r)` of the
-/// scalar preconditioner `P₀⁻¹ = inv_p` (for the step, the lumped mass: the
-/// norm the mass-preconditioned solve measures). That norm is a sum the
-/// update loop makes on the way, so a solve that stops there never applies
-/// `whole` to its last residual: one application per solve fewer.
-///
-/// The solve stops once `max_iterations` have run or the relative residual
-/// is below `tolerance`, but only where `certify(work)` accepts the iterate; until
-/// then it goes on, to at most `cap` iterations (`cap ≥ max_iterations`).
-/// The step's certificate is that the truncation adds no energy
-/// (`step::solve`); a solve that needs no such check passes `|_| true`, and
-/// then runs exactly as the plain algorithm.
-///
-/// Loops are fused where the order of operations allows it, so the result
-/// has the bits of the plain algorithm: `dᵀq` is summed inside `apply`'s
-/// node loop, and `q` is zeroed for the next product in the loop that updates
-/// `d`: two passes over the nodes fewer per iteration, which a Cortex-M4F,
-/// with no cache to hide them, pays for in full.
-#[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
-#[allow(clippy::too_many_arguments)] // the step's state, passed apart so that each borrow stays narrow
-pub(crate) fn solve(
-    work: &mut [NodeWork],
-    max_iterations: u32,
-    cap: u32,
-    tolerance: f32,
-    scalar_norm: bool,
-    project: impl Fn(usize, Vec3) -> Vec3,
-    mut whole: Option<impl FnMut(&mut [NodeWork]) -> f32>,
-    mut apply: impl FnMut(&mut [NodeWork]) -> f32,
-    mut certify: impl FnMut(&[NodeWork]) -> bool,
-) -> CgOutcome {
-    // `rz`: `rᵀz` of the residual the direction `d` was made from. `rm`:
-    // the squared norm the stopping rules and the statistic measure, `rᵀz`
-    // itself, or with `scalar_norm` and `whole`, `rᵀ S P₀⁻¹ S r` of the
-    // scalar preconditioner `P₀⁻¹ = inv_p`.
-    let mut rz = 0.0f32;
-    let mut rm = 0.0f32;
-    if let Some(pre) = whole.as_mut() {
-        rz = pre(work);
-        for (i, w) in work.iter_mut().enumerate() {
-            if scalar_norm {
-                let rf = project(i, w.r);
-                rm += dot(rf, scale(rf, w.inv_p));
+crate::backend::isa_inline!(
+    /// Runs at most `max_iterations` CG iterations from `work.x` with `work.r`
+    /// set to `b − A x`. `project(node, v)` applies the filter `S` of a node;
+    /// `apply(work)` finds every `work.q` zero, must set it to `A work.d`, and
+    /// returns `dᵀq = Σ dᵢ·qᵢ` summed in node order.
+    ///
+    /// The preconditioner is `project(i, inv_pᵢ rᵢ)` node by node, fused into
+    /// the update loop, or with `whole`, a pass that sets every `q` to the
+    /// preconditioned residual `z` and returns `rᵀz` summed in node order.
+    ///
+    /// The residual is measured in the preconditioner's norm `sqrt(rᵀz)`, or,
+    /// with `whole` and `scalar_norm`, in the norm `sqrt(rᵀ S P₀⁻¹ S r)` of the
+    /// scalar preconditioner `P₀⁻¹ = inv_p` (for the step, the lumped mass: the
+    /// norm the mass-preconditioned solve measures). That norm is a sum the
+    /// update loop makes on the way, so a solve that stops there never applies
+    /// `whole` to its last residual: one application per solve fewer.
+    ///
+    /// The solve stops once `max_iterations` have run or the relative residual
+    /// is below `tolerance`, but only where `certify(work)` accepts the iterate; until
+    /// then it goes on, to at most `cap` iterations (`cap ≥ max_iterations`).
+    /// The step's certificate is that the truncation adds no energy
+    /// (`step::solve`); a solve that needs no such check passes `|_| true`, and
+    /// then runs exactly as the plain algorithm.
+    ///
+    /// Loops are fused where the order of operations allows it, so the result
+    /// has the bits of the plain algorithm: `dᵀq` is summed inside `apply`'s
+    /// node loop, and `q` is zeroed for the next product in the loop that updates
+    /// `d`: two passes over the nodes fewer per iteration, which a Cortex-M4F,
+    /// with no cache to hide them, pays for in full.
+    #[allow(clippy::too_many_arguments)] // the step's state, passed apart so that each borrow stays narrow
+    pub(crate) fn solve(
+        work: &mut [NodeWork],
+        max_iterations: u32,
+        cap: u32,
+        tolerance: f32,
+        scalar_norm: bool,
+        project: impl Fn(usize, Vec3) -> Vec3,
+        mut whole: Option<impl FnMut(&mut [NodeWork]) -> f32>,
+        mut apply: impl FnMut(&mut [NodeWork]) -> f32,
+        mut certify: impl FnMut(&[NodeWork]) -> bool,
+    ) -> CgOutcome {
+        // `rz`: `rᵀz` of the residual the direction `d` was made from. `rm`:
+        // the squared norm the stopping rules and the statistic measure, `rᵀz`
+        // itself, or with `scalar_norm` and `whole`, `rᵀ S P₀⁻¹ S r` of the
+        // scalar preconditioner `P₀⁻¹ = inv_p`.
+        let mut rz = 0.0f32;
+        let mut rm = 0.0f32;
+        if let Some(pre) = whole.as_mut() {
+            rz = pre(work);
+            for (i, w) in work.iter_mut().enumerate() {
+                if scalar_norm {
+                    let rf = project(i, w.r);
+                    rm += dot(rf, scale(rf, w.inv_p));
+                }
+                w.d = w.q;
+                w.q = [0.0; 3];
             }
-            w.d = w.q;
-            w.q = [0.0; 3];
-        }
-        if !scalar_norm {
+            if !scalar_norm {
+                rm = rz;
+            }
+        } else {
+            for (i, w) in work.iter_mut().enumerate() {
+                let rf = project(i, w.r);
+                let z = scale(rf, w.inv_p);
+                w.d = z;
+                w.q = [0.0; 3];
+                rz += dot(rf, z);
+            }
             rm = rz;
         }
-    } else {
-        for (i, w) in work.iter_mut().enumerate() {
-            let rf = project(i, w.r);
-            let z = scale(rf, w.inv_p);
-            w.d = z;
-            w.q = [0.0; 3];
-            rz += dot(rf, z);
-        }
-        rm = rz;
-    }
-    let rm0 = rm;
-    if !(rz.is_finite() && rm0.is_finite()) {
-        return CgOutcome {
-            overflow: true,
-            ..CgOutcome::default()
-        };
-    }
-    if !(rz > 0.0 && rm0 > 0.0) {
-        // A zero preconditioned residual: the guess solves the system.
-        return CgOutcome {
-            certified: true,
-            ..CgOutcome::default()
-        };
-    }
-    let floor = (FLOOR * rm0).max(f32::MIN_POSITIVE);
-    let stop = (tolerance * tolerance * rm0).max(floor);
-    let mut iterations = 0;
-    let mut certified = false;
-    // With `whole`: `r` has changed since `d` was made, and the next
-    // direction waits for `P⁻¹ r` (`next`: its `rᵀz`, when already known).
-    // Made only once the solve goes on, so that a solve that stops needs
-    // no preconditioner for its last residual.
-    let mut stale = false;
-    let mut next = 0.0f32;
-    loop {
-        if iterations >= max_iterations || rm <= stop {
-            if certify(work) {
-                certified = true;
-                break;
-            }
-            if iterations >= cap || rm <= floor {
-                break;
-            }
-        }
-        if stale {
-            if let Some(pre) = whole.as_mut() {
-                if scalar_norm {
-                    next = pre(work);
-                }
-                let beta = next / rz;
-                rz = next;
-                for w in work.iter_mut() {
-                    w.d = axpy(w.q, beta, w.d);
-                    w.q = [0.0; 3];
-                }
-            }
-            stale = false;
-        }
-        let dq = apply(work);
-        if !dq.is_finite() {
+        let rm0 = rm;
+        if !(rz.is_finite() && rm0.is_finite()) {
             return CgOutcome {
-                iterations,
-                residual: f32::INFINITY,
                 overflow: true,
-                certified: false,
+                ..CgOutcome::default()
             };
         }
-        if !(dq > 0.0) {
-            break;
+        if !(rz > 0.0 && rm0 > 0.0) {
+            // A zero preconditioned residual: the guess solves the system.
+            return CgOutcome {
+                certified: true,
+                ..CgOutcome::default()
+            };
         }
-        let alpha = rz / dq;
-        iterations += 1;
-        if let Some(pre) = whole.as_mut() {
-            let mut sum = 0.0f32;
+        let floor = (FLOOR * rm0).max(f32::MIN_POSITIVE);
+        let stop = (tolerance * tolerance * rm0).max(floor);
+        let mut iterations = 0;
+        let mut certified = false;
+        // With `whole`: `r` has changed since `d` was made, and the next
+        // direction waits for `P⁻¹ r` (`next`: its `rᵀz`, when already known).
+        // Made only once the solve goes on, so that a solve that stops needs
+        // no preconditioner for its last residual.
+        let mut stale = false;
+        let mut next = 0.0f32;
+        loop {
+            if iterations >= max_iterations || rm <= stop {
+                if certify(work) {
+                    certified = true;
+                    break;
+                }
+                if iterations >= cap || rm <= floor {
+                    break;
+                }
+            }
+            if stale {
+                if let Some(pre) = whole.as_mut() {
+                    if scalar_norm {
+                        next = pre(work);
+                    }
+                    let beta = next / rz;
+                    rz = next;
+                    for w in work.iter_mut() {
+                        w.d = axpy(w.q, beta, w.d);
+                        w.q = [0.0; 3];
+                    }
+                }
+                stale = false;
+            }
+            let dq = apply(work);
+            if !dq.is_finite() {
+                return CgOutcome {
+                    iterations,
+                    residual: f32::INFINITY,
+                    overflow: true,
+                    certified: false,
+                };
+            }
+            if !(dq > 0.0) {
+                break;
+            }
+            let alpha = rz / dq;
+            iterations += 1;
+            if let Some(pre) = whole.as_mut() {
+                let mut sum = 0.0f32;
+                for (i, w) in work.iter_mut().enumerate() {
+                    w.x = axpy(w.x, alpha, w.d);
+                    w.r = axpy(w.r, -alpha, w.q);
+                    if scalar_norm {
+                        let rf = project(i, w.r);
+                        sum += dot(rf, scale(rf, w.inv_p));
+                        w.q = [0.0; 3];
+                    }
+                }
+                if scalar_norm {
+                    rm = sum;
+                } else {
+                    next = pre(work);
+                    rm = next;
+                }
+                stale = true;
+                continue;
+            }
+            let mut rz_new = 0.0f32;
             for (i, w) in work.iter_mut().enumerate() {
                 w.x = axpy(w.x, alpha, w.d);
                 w.r = axpy(w.r, -alpha, w.q);
-                if scalar_norm {
-                    let rf = project(i, w.r);
-                    sum += dot(rf, scale(rf, w.inv_p));
-                    w.q = [0.0; 3];
-                }
+                let rf = project(i, w.r);
+                let z = scale(rf, w.inv_p);
+                w.q = z;
+                rz_new += dot(rf, z);
             }
-            if scalar_norm {
-                rm = sum;
-            } else {
-                next = pre(work);
-                rm = next;
-            }
-            stale = true;
-            continue;
-        }
-        let mut rz_new = 0.0f32;
-        for (i, w) in work.iter_mut().enumerate() {
-            w.x = axpy(w.x, alpha, w.d);
-            w.r = axpy(w.r, -alpha, w.q);
-            let rf = project(i, w.r);
-            let z = scale(rf, w.inv_p);
-            w.q = z;
-            rz_new += dot(rf, z);
-        }
-        let beta = rz_new / rz;
-        rz = rz_new;
-        rm = rz;
-        for w in work.iter_mut() {
-            w.d = axpy(w.q, beta, w.d);
-            w.q = [0.0; 3];
-        }
-    }
-    CgOutcome {
-        iterations,
-        // Square roots first and a clamp: the ratio of a grown residual to a tiny
-        // initial one can exceed f32 (found by fuzzing); the statistic stays finite.
-        residual: (sqrt(rm.max(0.0)) / sqrt(rm0)).min(f32::MAX),
-        overflow: !(rm.is_finite() && rz.is_finite()),
-        certified,
-    }
-}
-
-/// The energy certificate of a truncated solve. Linearised at the current
-/// state, a step that solves `A Δv = b − r` changes the kinetic plus elastic
-/// energy by (with `v' = v + Δv`, the tool's spring counted with `K`)
-///
-/// ```text
-/// h v'ᵀf_ext − v'ᵀr − ½ ΔvᵀMΔv − (h²/2 + h α_K) v'ᵀKv' − h α_M v'ᵀMv'
-/// ```
-///
-/// (expand `v'ᵀ M Δv` with `M Δv = b − r − h α_M M Δv − h (α_K + h) K Δv`
-/// and add `E(x + h v') − E(x) ≈ −h f_elᵀv' + ½ h² v'ᵀKv'`). The exact step
-/// has `r = 0` and only dissipates; a truncated one is accepted when its
-/// residual injects no more than the dissipation the step has anyway:
-/// `−v'ᵀ S r ≤ ½ ΔvᵀMΔv + h α_M v'ᵀMv' + ε KE`. The `K` terms are left out
-/// (they need another product; leaving out a dissipation only makes the test
-/// stricter). `S` filters the held ground normals (the ground's force does
-/// no work on a node it holds still); fixed nodes do not move.
-/// `ε = f32::EPSILON`: the kinetic energy `KE`, a sum of f32 terms, is not
-/// known more finely, so a finer test would reject round-off.
-#[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
-pub(crate) fn certified(
-    nodes: &[Node],
-    work: &[NodeWork],
-    project: impl Fn(usize, Vec3) -> Vec3,
-    h_alpha_m: f32,
-    correction: Option<&Correction>,
-) -> bool {
-    let (mut inject, mut dissipate, mut kinetic) = (0.0f32, 0.0f32, 0.0f32);
-    for (i, (n, w)) in nodes.iter().zip(work.iter()).enumerate() {
-        if n.flags & FIXED != 0 {
-            continue;
-        }
-        let v1 = add(n.v, w.x);
-        // The step starts from the guard's velocity `v + δ`: `Δv = x − δ`.
-        let (v0, dv) = match correction {
-            Some(c) => {
-                let delta = c.delta(n);
-                (add(n.v, delta), sub(w.x, delta))
-            }
-            None => (n.v, w.x),
-        };
-        inject -= dot(v1, project(i, w.r));
-        dissipate += n.mass * (0.5 * dot(dv, dv) + h_alpha_m * dot(v1, v1));
-        kinetic += n.mass * dot(v0, v0);
-    }
-    inject <= dissipate + f32::EPSILON * 0.5 * kinetic
-}
-
-/// The Galerkin step that ends a solve without an energy certificate: the
-/// solution is replaced by the best one (least energy norm of the error) in
-/// `x₀ + span{P Δv, P v}`, where `P` takes the part that CG may change (the
-/// filter `S` of held normals and fixed nodes, or for an isolated body, the
-/// part without the rigid motion of the same momentum), and `x₀` keeps the
-/// rest (held normals; for an isolated body, the rigid part, which the
-/// preconditioners keep exact). The new residual is then orthogonal to both
-/// directions (and, for an isolated body, still free of net force and
-/// torque: `A` maps the `M`-orthogonal directions to forces without them),
-/// so `v'ᵀ S r = 0`: the truncation adds no energy.
-///
-/// The second direction is made `A`-orthogonal to the first and multiplied
-/// by `A` again rather than updated: where a stiff step all but stops the
-/// deformation, `A P v` and `A P Δv` are nearly parallel and their
-/// difference cancels to noise in f32. Three products with `A` in all.
-#[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
-pub(crate) fn galerkin(
-    nodes: &[Node],
-    work: &mut [NodeWork],
-    isolated: bool,
-    rotations: bool,
-    project: impl Fn(usize, Vec3) -> Vec3,
-    mut apply: impl FnMut(&mut [NodeWork]) -> f32,
-    start: impl Fn(&Node) -> Vec3,
-) {
-    let rigid = if isolated {
-        Rigid::new(nodes, rotations)
-    } else {
-        None
-    };
-    let none = ([0.0; 3], [0.0; 3]);
-    let (fit_x, fit_v) = match rigid {
-        Some(body) => (
-            body.fit(nodes, work, |n, w| scale(w.x, n.mass)),
-            body.fit(nodes, work, |n, _| scale(start(n), n.mass)),
-        ),
-        None => (none, none),
-    };
-    // `P a` at node `i`, with the rigid motion `fit` of the field `a`.
-    let part = |i: usize, n: &Node, a: Vec3, fit: Motion| -> Vec3 {
-        if n.flags & FIXED != 0 {
-            return [0.0; 3];
-        }
-        match rigid {
-            Some(body) => body.less_rigid(n, a, fit),
-            None => project(i, a),
-        }
-    };
-    // Along e = P Δv: Δv += a e, with a = eᵀr / eᵀAe. Since P is a
-    // projection, P Δv is then (1 + a) e, with A-norm² (1 + a)² eᵀAe.
-    for (i, (n, w)) in nodes.iter().zip(work.iter_mut()).enumerate() {
-        w.d = part(i, n, w.x, fit_x);
-        w.q = [0.0; 3];
-    }
-    let eae = apply(work);
-    let e_norm = descend(work, eae).map_or(0.0, |a| (1.0 + a) * (1.0 + a) * eae);
-    // Along f = P v, made A-orthogonal to e = P Δv.
-    for (i, (n, w)) in nodes.iter().zip(work.iter_mut()).enumerate() {
-        w.d = part(i, n, start(n), fit_v);
-        w.q = [0.0; 3];
-    }
-    let mut faf = apply(work);
-    if e_norm > 0.0 && e_norm.is_finite() && faf.is_finite() {
-        let mut eaf = 0.0f32;
-        for (i, (n, w)) in nodes.iter().zip(work.iter()).enumerate() {
-            eaf += dot(part(i, n, w.x, fit_x), w.q);
-        }
-        let c = eaf / e_norm;
-        if c != 0.0 && c.is_finite() {
-            for (i, (n, w)) in nodes.iter().zip(work.iter_mut()).enumerate() {
-                w.d = axpy(w.d, -c, part(i, n, w.x, fit_x));
+            let beta = rz_new / rz;
+            rz = rz_new;
+            rm = rz;
+            for w in work.iter_mut() {
+                w.d = axpy(w.q, beta, w.d);
                 w.q = [0.0; 3];
             }
-            faf = apply(work);
+        }
+        CgOutcome {
+            iterations,
+            // Square roots first and a clamp: the ratio of a grown residual to a tiny
+            // initial one can exceed f32 (found by fuzzing); the statistic stays finite.
+            residual: (sqrt(rm.max(0.0)) / sqrt(rm0)).min(f32::MAX),
+            overflow: !(rm.is_finite() && rz.is_finite()),
+            certified,
         }
     }
-    descend(work, faf);
-}
+);
+
+crate::backend::isa_inline!(
+    /// The energy certificate of a truncated solve. Linearised at the current
+    /// state, a step that solves `A Δv = b − r` changes the kinetic plus elastic
+    /// energy by (with `v' = v + Δv`, the tool's spring counted with `K`)
+    ///
+    /// ```text
+    /// h v'ᵀf_ext − v'ᵀr − ½ ΔvᵀMΔv − (h²/2 + h α_K) v'ᵀKv' − h α_M v'ᵀMv'
+    /// ```
+    ///
+    /// (expand `v'ᵀ M Δv` with `M Δv = b − r − h α_M M Δv − h (α_K + h) K Δv`
+    /// and add `E(x + h v') − E(x) ≈ −h f_elᵀv' + ½ h² v'ᵀKv'`). The exact step
+    /// has `r = 0` and only dissipates; a truncated one is accepted when its
+    /// residual injects no more than the dissipation the step has anyway:
+    /// `−v'ᵀ S r ≤ ½ ΔvᵀMΔv + h α_M v'ᵀMv' + ε KE`. The `K` terms are left out
+    /// (they need another product; leaving out a dissipation only makes the test
+    /// stricter). `S` filters the held ground normals (the ground's force does
+    /// no work on a node it holds still); fixed nodes do not move.
+    /// `ε = f32::EPSILON`: the kinetic energy `KE`, a sum of f32 terms, is not
+    /// known more finely, so a finer test would reject round-off.
+    pub(crate) fn certified(
+        nodes: &[Node],
+        work: &[NodeWork],
+        project: impl Fn(usize, Vec3) -> Vec3,
+        h_alpha_m: f32,
+        correction: Option<&Correction>,
+    ) -> bool {
+        let (mut inject, mut dissipate, mut kinetic) = (0.0f32, 0.0f32, 0.0f32);
+        for (i, (n, w)) in nodes.iter().zip(work.iter()).enumerate() {
+            if n.flags & FIXED != 0 {
+                continue;
+            }
+            let v1 = add(n.v, w.x);
+            // The step starts from the guard's velocity `v + δ`: `Δv = x − δ`.
+            let (v0, dv) = match correction {
+                Some(c) => {
+                    let delta = c.delta(n);
+                    (add(n.v, delta), sub(w.x, delta))
+                }
+                None => (n.v, w.x),
+            };
+            inject -= dot(v1, project(i, w.r));
+            dissipate += n.mass * (0.5 * dot(dv, dv) + h_alpha_m * dot(v1, v1));
+            kinetic += n.mass * dot(v0, v0);
+        }
+        inject <= dissipate + f32::EPSILON * 0.5 * kinetic
+    }
+);
+
+crate::backend::isa_inline!(
+    /// The Galerkin step that ends a solve without an energy certificate: the
+    /// solution is replaced by the best one (least energy norm of the error) in
+    /// `x₀ + span{P Δv, P v}`, where `P` takes the part that CG may change (the
+    /// filter `S` of held normals and fixed nodes, or for an isolated body, the
+    /// part without the rigid motion of the same momentum), and `x₀` keeps the
+    /// rest (held normals; for an isolated body, the rigid part, which the
+    /// preconditioners keep exact). The new residual is then orthogonal to both
+    /// directions (and, for an isolated body, still free of net force and
+    /// torque: `A` maps the `M`-orthogonal directions to forces without them),
+    /// so `v'ᵀ S r = 0`: the truncation adds no energy.
+    ///
+    /// The second direction is made `A`-orthogonal to the first and multiplied
+    /// by `A` again rather than updated: where a stiff step all but stops the
+    /// deformation, `A P v` and `A P Δv` are nearly parallel and their
+    /// difference cancels to noise in f32. Three products with `A` in all.
+    pub(crate) fn galerkin(
+        nodes: &[Node],
+        work: &mut [NodeWork],
+        isolated: bool,
+        rotations: bool,
+        project: impl Fn(usize, Vec3) -> Vec3,
+        mut apply: impl FnMut(&mut [NodeWork]) -> f32,
+        start: impl Fn(&Node) -> Vec3,
+    ) {
+        let rigid = if isolated {
+            Rigid::new(nodes, rotations)
+        } else {
+            None
+        };
+        let none = ([0.0; 3], [0.0; 3]);
+        let (fit_x, fit_v) = match rigid {
+            Some(body) => (
+                body.fit(nodes, work, |n, w| scale(w.x, n.mass)),
+                body.fit(nodes, work, |n, _| scale(start(n), n.mass)),
+            ),
+            None => (none, none),
+        };
+        // `P a` at node `i`, with the rigid motion `fit` of the field `a`.
+        let part = |i: usize, n: &Node, a: Vec3, fit: Motion| -> Vec3 {
+            if n.flags & FIXED != 0 {
+                return [0.0; 3];
+            }
+            match rigid {
+                Some(body) => body.less_rigid(n, a, fit),
+                None => project(i, a),
+            }
+        };
+        // Along e = P Δv: Δv += a e, with a = eᵀr / eᵀAe. Since P is a
+        // projection, P Δv is then (1 + a) e, with A-norm² (1 + a)² eᵀAe.
+        for (i, (n, w)) in nodes.iter().zip(work.iter_mut()).enumerate() {
+            w.d = part(i, n, w.x, fit_x);
+            w.q = [0.0; 3];
+        }
+        let eae = apply(work);
+        let e_norm = descend(work, eae).map_or(0.0, |a| (1.0 + a) * (1.0 + a) * eae);
+        // Along f = P v, made A-orthogonal to e = P Δv.
+        for (i, (n, w)) in nodes.iter().zip(work.iter_mut()).enumerate() {
+            w.d = part(i, n, start(n), fit_v);
+            w.q = [0.0; 3];
+        }
+        let mut faf = apply(work);
+        if e_norm > 0.0 && e_norm.is_finite() && faf.is_finite() {
+            let mut eaf = 0.0f32;
+            for (i, (n, w)) in nodes.iter().zip(work.iter()).enumerate() {
+                eaf += dot(part(i, n, w.x, fit_x), w.q);
+            }
+            let c = eaf / e_norm;
+            if c != 0.0 && c.is_finite() {
+                for (i, (n, w)) in nodes.iter().zip(work.iter_mut()).enumerate() {
+                    w.d = axpy(w.d, -c, part(i, n, w.x, fit_x));
+                    w.q = [0.0; 3];
+                }
+                faf = apply(work);
+            }
+        }
+        descend(work, faf);
+    }
+);
 
 /// The exact line search along `d` (with `q = A d`, `dad = dᵀAd`):
 /// `x += a d`, `r −= a q` with `a = dᵀr / dᵀAd`, after which `dᵀr = 0`.

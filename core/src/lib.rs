@@ -108,7 +108,7 @@
 #![no_std]
 // No unsafe code, except the square root instruction (math.rs: SSE's
 // `sqrtss` intrinsic on x86, the FPU's `vsqrt.f32` behind `fpu-sqrt`), the
-// stiffness product in FPU assembly behind `fpu-product` (fpu_product.rs) and
+// stiffness product in FPU assembly behind `fpu-product` (backend/fpu_product.rs) and
 // the x86_64 backends (backend/: SSE2 and AVX2 intrinsics, 16-byte loads and
 // stores inside checked slots, AVX2 only behind a token that proves the CPU
 // has it), each allowed where it is and nowhere else.
@@ -156,13 +156,6 @@ mod turn;
 mod coupling;
 #[cfg(feature = "diagnostics")]
 mod diagnostics;
-#[cfg(all(
-    feature = "fpu-product",
-    target_arch = "arm",
-    target_os = "none",
-    target_abi = "eabihf"
-))]
-mod fpu_product;
 #[cfg(feature = "nalgebra")]
 pub mod na;
 #[cfg(feature = "statics")]

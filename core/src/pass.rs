@@ -801,7 +801,7 @@ pub(crate) fn stiffness<B: Backend>(
     target_os = "none",
     target_abi = "eabihf"
 ))]
-use crate::fpu_product::product as product_one_by_one;
+use crate::backend::fpu_product::product as product_one_by_one;
 
 /// [`stiffness`] with one element per block (a Cortex-M4F): plain scalar
 /// code over a slice of exactly the used blocks. The four node indices are
@@ -813,7 +813,7 @@ use crate::fpu_product::product as product_one_by_one;
 /// loop does not need (QEMU, the firmware built without `fpu-product`).
 ///
 /// With feature `fpu-product` on bare-metal Arm hard-float targets,
-/// `crate::fpu_product::product` takes its place (the same operations in
+/// `crate::backend::fpu_product::product` takes its place (the same operations in
 /// assembly, imported under this name above); the firmware's builds without
 /// that feature run this one, with the same hash.
 #[cfg(not(all(

@@ -91,31 +91,32 @@ impl Rigid {
         })
     }
 
-    /// The rigid motion whose momentum is that of the field `f(node, work)`
-    /// (a momentum per node, or a force): `v = Σ f / Σ m` and
-    /// `ω = I⁻¹ Σ (p − c) × (f − m v)`, in one pass over the nodes.
-    #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
-    pub(crate) fn fit(
-        &self,
-        nodes: &[Node],
-        work: &[NodeWork],
-        f: impl Fn(&Node, &NodeWork) -> Vec3,
-    ) -> Motion {
-        let (mut lin, mut ang) = ([0.0f32; 3], [0.0f32; 3]);
-        for (n, w) in nodes.iter().zip(work.iter()) {
-            let fi = f(n, w);
-            lin = add(lin, fi);
-            if self.inertia.is_some() {
-                ang = add(ang, cross(sub(n.position(), self.c), fi));
+    crate::backend::isa_inline!(
+        /// The rigid motion whose momentum is that of the field `f(node, work)`
+        /// (a momentum per node, or a force): `v = Σ f / Σ m` and
+        /// `ω = I⁻¹ Σ (p − c) × (f − m v)`, in one pass over the nodes.
+        pub(crate) fn fit(
+            &self,
+            nodes: &[Node],
+            work: &[NodeWork],
+            f: impl Fn(&Node, &NodeWork) -> Vec3,
+        ) -> Motion {
+            let (mut lin, mut ang) = ([0.0f32; 3], [0.0f32; 3]);
+            for (n, w) in nodes.iter().zip(work.iter()) {
+                let fi = f(n, w);
+                lin = add(lin, fi);
+                if self.inertia.is_some() {
+                    ang = add(ang, cross(sub(n.position(), self.c), fi));
+                }
             }
+            let vel = scale(lin, self.inv_mass);
+            let omega = self
+                .inertia
+                .and_then(|i| solve3(&i, sub(ang, cross(self.first_moment, vel))))
+                .unwrap_or([0.0; 3]);
+            (vel, omega)
         }
-        let vel = scale(lin, self.inv_mass);
-        let omega = self
-            .inertia
-            .and_then(|i| solve3(&i, sub(ang, cross(self.first_moment, vel))))
-            .unwrap_or([0.0; 3]);
-        (vel, omega)
-    }
+    );
 
     /// The velocity of the centre of mass of the field `f(node, work)` (a
     /// momentum per node), and, with rotations, its angular momentum about
@@ -154,34 +155,35 @@ impl Rigid {
         sub(a, self.at(n, m))
     }
 
-    /// Completes a preconditioner `P` made exact on the rigid modes `R`:
-    /// `z = Π P⁻¹ Πᵀ r + R (RᵀAR)⁻¹ Rᵀ r`, with `Π = I − R (RᵀMR)⁻¹ RᵀM`
-    /// and `RᵀAR = (1 + h α_M) RᵀMR` (`K R = 0`). Both the rigid modes and
-    /// their `M`-orthogonal complement are then invariant under `P⁻¹A`, so
-    /// every CG iterate keeps the exact step's response to the rigid modes,
-    /// as the mass preconditioner does. The caller has set every `q` to
-    /// `P⁻¹ Πᵀ r`, that is `P⁻¹` of `rᵢ − mᵢ force(pᵢ)`, where `force` is the
-    /// [`Rigid::fit`] of `r` (the rigid motion of the residual's net force
-    /// and torque); this makes `q = z` and returns `rᵀz`.
-    #[cfg(feature = "two-level")]
-    #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
-    pub(crate) fn finish(
-        &self,
-        nodes: &[Node],
-        work: &mut [NodeWork],
-        mass_coef: f32,
-        force: Motion,
-    ) -> f32 {
-        // Π z̃ = z̃ less its rigid motion, plus the rigid modes' exact part.
-        let kept = self.fit(nodes, work, |n, w| scale(w.q, n.mass));
-        let mut rz = 0.0f32;
-        for (n, w) in nodes.iter().zip(work.iter_mut()) {
-            let z = self.less_rigid(n, w.q, kept);
-            w.q = axpy(z, 1.0 / mass_coef, self.at(n, force));
-            rz += dot(w.r, w.q);
+    crate::backend::isa_inline!(
+        /// Completes a preconditioner `P` made exact on the rigid modes `R`:
+        /// `z = Π P⁻¹ Πᵀ r + R (RᵀAR)⁻¹ Rᵀ r`, with `Π = I − R (RᵀMR)⁻¹ RᵀM`
+        /// and `RᵀAR = (1 + h α_M) RᵀMR` (`K R = 0`). Both the rigid modes and
+        /// their `M`-orthogonal complement are then invariant under `P⁻¹A`, so
+        /// every CG iterate keeps the exact step's response to the rigid modes,
+        /// as the mass preconditioner does. The caller has set every `q` to
+        /// `P⁻¹ Πᵀ r`, that is `P⁻¹` of `rᵢ − mᵢ force(pᵢ)`, where `force` is the
+        /// [`Rigid::fit`] of `r` (the rigid motion of the residual's net force
+        /// and torque); this makes `q = z` and returns `rᵀz`.
+        #[cfg(feature = "two-level")]
+        pub(crate) fn finish(
+            &self,
+            nodes: &[Node],
+            work: &mut [NodeWork],
+            mass_coef: f32,
+            force: Motion,
+        ) -> f32 {
+            // Π z̃ = z̃ less its rigid motion, plus the rigid modes' exact part.
+            let kept = self.fit(nodes, work, |n, w| scale(w.q, n.mass));
+            let mut rz = 0.0f32;
+            for (n, w) in nodes.iter().zip(work.iter_mut()) {
+                let z = self.less_rigid(n, w.q, kept);
+                w.q = axpy(z, 1.0 / mass_coef, self.at(n, force));
+                rz += dot(w.r, w.q);
+            }
+            rz
         }
-        rz
-    }
+    );
 }
 
 /// The Cayley rotation of `a`: by the angle `2 atan(|a|/2)` about `a`, as

@@ -34,8 +34,37 @@
 //! A backend value is a token: `Avx2` can only be made where the CPU is
 //! known to have AVX2, so its methods are safe to call.
 
+/// Marks a function (an item) or a closure (an expression, where attributes
+/// on closures are allowed: a `let` initialiser's block tail, an argument)
+/// `#[inline(always)]` on x86 hosts: the step is compiled there once per
+/// instruction set ([`Backend::call`]), and code left out of line would
+/// stay at the baseline (every AVX2 intrinsic inlined into it a call).
+/// Elsewhere the compiler chooses: one out-of-line copy saves flash.
+macro_rules! isa_inline {
+    (move $($closure:tt)*) => {{
+        #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
+        move $($closure)*
+    }};
+    (| $($closure:tt)*) => {{
+        #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
+        | $($closure)*
+    }};
+    ($item:item) => {
+        #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
+        $item
+    };
+}
+pub(crate) use isa_inline;
+
 #[cfg(target_arch = "x86_64")]
 mod avx2;
+#[cfg(all(
+    feature = "fpu-product",
+    target_arch = "arm",
+    target_os = "none",
+    target_abi = "eabihf"
+))]
+pub(crate) mod fpu_product;
 #[cfg(target_arch = "x86_64")]
 mod rows;
 #[cfg(target_arch = "x86_64")]

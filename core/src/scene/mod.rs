@@ -148,47 +148,48 @@ impl<S: Storage> Scene<S> {
         self.store.parts().1.len().saturating_mul(LANES)
     }
 
-    #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
-    pub(crate) fn view(&mut self) -> View<'_> {
-        if !self.hdr.settings_valid {
-            let defaults = self.default_settings();
-            self.hdr.write_default_settings(defaults);
-        }
-        let (n, e) = (self.hdr.n_nodes, self.hdr.n_elems);
-        #[cfg(feature = "tool")]
-        let n_grabs = self.hdr.tool.count as usize;
-        #[cfg(feature = "loads")]
-        let n_loads = self.hdr.n_loads;
-        let p = self.store.parts_mut();
-        View {
-            hdr: &mut self.hdr,
-            nodes: p.nodes.get_mut(..n).unwrap_or_default(),
-            work: p.work.get_mut(..n).unwrap_or_default(),
-            elems: p.elems.get_mut(..element_blocks(e)).unwrap_or_default(),
-            n_elems: e,
-            lists: Lists {
-                #[cfg(feature = "tool")]
-                grabs: p.grabs.get(..n_grabs).unwrap_or_default(),
-                #[cfg(feature = "loads")]
-                loads: p.loads.get(..n_loads).unwrap_or_default(),
-                _life: core::marker::PhantomData,
-            },
-            pre: PreSlots {
-                #[cfg(feature = "two-level")]
-                parts: crate::slots::Parts {
-                    blocks: p.blocks.get_mut(..n).unwrap_or_default(),
-                    aggs: p.aggs,
-                    coarse: p.coarse,
+    crate::backend::isa_inline!(
+        pub(crate) fn view(&mut self) -> View<'_> {
+            if !self.hdr.settings_valid {
+                let defaults = self.default_settings();
+                self.hdr.write_default_settings(defaults);
+            }
+            let (n, e) = (self.hdr.n_nodes, self.hdr.n_elems);
+            #[cfg(feature = "tool")]
+            let n_grabs = self.hdr.tool.count as usize;
+            #[cfg(feature = "loads")]
+            let n_loads = self.hdr.n_loads;
+            let p = self.store.parts_mut();
+            View {
+                hdr: &mut self.hdr,
+                nodes: p.nodes.get_mut(..n).unwrap_or_default(),
+                work: p.work.get_mut(..n).unwrap_or_default(),
+                elems: p.elems.get_mut(..element_blocks(e)).unwrap_or_default(),
+                n_elems: e,
+                lists: Lists {
+                    #[cfg(feature = "tool")]
+                    grabs: p.grabs.get(..n_grabs).unwrap_or_default(),
+                    #[cfg(feature = "loads")]
+                    loads: p.loads.get(..n_loads).unwrap_or_default(),
+                    _life: core::marker::PhantomData,
                 },
-                _life: core::marker::PhantomData,
-            },
-            probes: Probes {
-                #[cfg(feature = "probe")]
-                list: &mut [],
-                _life: core::marker::PhantomData,
-            },
+                pre: PreSlots {
+                    #[cfg(feature = "two-level")]
+                    parts: crate::slots::Parts {
+                        blocks: p.blocks.get_mut(..n).unwrap_or_default(),
+                        aggs: p.aggs,
+                        coarse: p.coarse,
+                    },
+                    _life: core::marker::PhantomData,
+                },
+                probes: Probes {
+                    #[cfg(feature = "probe")]
+                    list: &mut [],
+                    _life: core::marker::PhantomData,
+                },
+            }
         }
-    }
+    );
 
     /// Whether this build and the storage can run `pre` (for a scene of as
     /// many nodes as the storage holds).

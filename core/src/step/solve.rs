@@ -3,7 +3,7 @@
 //! relaxation.
 
 use super::Ctx;
-use crate::backend::Backend;
+use crate::backend::{isa_inline, Backend};
 use crate::cg::{self, CgOutcome};
 use crate::contact::{Carry, Held, Obstacles, Probes};
 use crate::element::ElementBlock;
@@ -77,26 +77,20 @@ pub(super) fn system<'a, B: Backend + 'a>(
     let obstacles = Obstacles::new(ctx.ground, probes);
     let spring = hdr.spring();
     let (h, mass_coef, k_coef, per_young) = (ctx.h, ctx.mass_coef, ctx.k_coef, ctx.per_young);
-    let project = {
-        #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
-        move |i: usize, z: Vec3| -> Vec3 { obstacles.filter(nodes, i, z) }
-    };
-    let apply = {
-        #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
-        move |work: &mut [NodeWork]| {
-            pass::stiffness(b, per_young, elems, n_elems, work);
-            let mut dq = 0.0f32;
-            for (n, w) in nodes.iter().zip(work.iter_mut()) {
-                let mut p = mass_coef * n.mass;
-                if spring.holds(n) {
-                    p += h * h * spring.k();
-                }
-                w.q = axpy(scale(w.d, p), -k_coef, w.q);
-                dq += dot(w.d, w.q);
+    let project = isa_inline!(move |i: usize, z: Vec3| -> Vec3 { obstacles.filter(nodes, i, z) });
+    let apply = isa_inline!(move |work: &mut [NodeWork]| {
+        pass::stiffness(b, per_young, elems, n_elems, work);
+        let mut dq = 0.0f32;
+        for (n, w) in nodes.iter().zip(work.iter_mut()) {
+            let mut p = mass_coef * n.mass;
+            if spring.holds(n) {
+                p += h * h * spring.k();
             }
-            dq
+            w.q = axpy(scale(w.d, p), -k_coef, w.q);
+            dq += dot(w.d, w.q);
         }
-    };
+        dq
+    });
     System { project, apply }
 }
 
@@ -141,24 +135,24 @@ where
         None
     };
     #[cfg(feature = "two-level")]
-    let whole = (kind != Preconditioner::Mass).then_some(
-        #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
-        |work: &mut [NodeWork]| match rigid {
-            None => crate::precond::apply(nodes, work, &mut pre.parts, |_, r| r, project),
-            Some(body) => {
-                // Rigid modes exact (`Rigid::finish`): P⁻¹ of the residual
-                // less the rigid motion of its net force and torque. (Nothing
-                // holds an isolated body, so `S r` is `r` here.)
-                let force = body.fit(nodes, work, |_, w| w.r);
-                let input = |i: usize, r: Vec3| match nodes.get(i) {
-                    Some(n) => axpy(r, -n.mass, body.at(n, force)),
-                    None => r,
-                };
-                crate::precond::apply(nodes, work, &mut pre.parts, input, project);
-                body.finish(nodes, work, mass_coef, force)
+    let whole =
+        (kind != Preconditioner::Mass).then_some(isa_inline!(
+            |work: &mut [NodeWork]| match rigid {
+                None => crate::precond::apply(nodes, work, &mut pre.parts, |_, r| r, project),
+                Some(body) => {
+                    // Rigid modes exact (`Rigid::finish`): P⁻¹ of the residual
+                    // less the rigid motion of its net force and torque. (Nothing
+                    // holds an isolated body, so `S r` is `r` here.)
+                    let force = body.fit(nodes, work, |_, w| w.r);
+                    let input = |i: usize, r: Vec3| match nodes.get(i) {
+                        Some(n) => axpy(r, -n.mass, body.at(n, force)),
+                        None => r,
+                    };
+                    crate::precond::apply(nodes, work, &mut pre.parts, input, project);
+                    body.finish(nodes, work, mass_coef, force)
+                }
             }
-        },
-    );
+        ));
     #[cfg(not(feature = "two-level"))]
     let whole = {
         let _ = (&pre, mass_coef);
@@ -174,10 +168,9 @@ where
         project,
         whole,
         apply,
-        #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
-        |work: &[NodeWork]| {
+        isa_inline!(|work: &[NodeWork]| {
             cg::certified(nodes, work, project, ctx.h * s.rayleigh_mass, correction)
-        },
+        }),
     );
     if outcome.overflow {
         return Err(StepError::Diverged);
@@ -268,12 +261,10 @@ where
     if held.relaxed() {
         let project = sys.project;
         #[cfg(feature = "two-level")]
-        let whole = (kind != Preconditioner::Mass).then_some(
-            #[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
-            |work: &mut [NodeWork]| {
+        let whole =
+            (kind != Preconditioner::Mass).then_some(isa_inline!(|work: &mut [NodeWork]| {
                 crate::precond::apply(nodes, work, &mut pre.parts, |_, r| r, project)
-            },
-        );
+            }));
         #[cfg(not(feature = "two-level"))]
         let whole = None::<fn(&mut [NodeWork]) -> f32>;
         return crate::contact::relax(
