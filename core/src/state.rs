@@ -18,7 +18,7 @@ use crate::tool::ToolState;
 
 /// Everything about a scene that is not per node or per element.
 ///
-/// [`Header::EMPTY`], and with it an empty [`StaticScene`], is all zero
+/// [`Header::EMPTY`], and with it an empty [`StaticScene`](crate::StaticScene), is all zero
 /// bits, so that a `static` scene lands in `.bss` and costs no flash (an
 /// initial value with one non-zero byte puts the whole scene in `.data`,
 /// whose image is stored in flash as well: 27 kB more for the firmware
@@ -52,7 +52,7 @@ pub(crate) struct Header {
     /// Entries used in the storage's load list (nodes flagged `LOADED`).
     #[cfg(feature = "loads")]
     pub(crate) n_loads: usize,
-    /// The instruction set asked for ([`Scene::set_instruction_set`]).
+    /// The instruction set asked for ([`Scene::set_instruction_set`](crate::Scene::set_instruction_set)).
     pub(crate) isa: IsaChoice,
     /// Aggregates of the two-level preconditioner in use.
     #[cfg(feature = "two-level")]

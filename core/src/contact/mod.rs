@@ -2,7 +2,7 @@
 //!
 //! The obstacles are the ground ([`ground`], feature `ground`) and rigid
 //! probes ([`probe`], feature `probe`), each seen by the step as a
-//! [`Contact`](ground::Contact) plane per node: [`Obstacles`] finds the one
+//! `Contact` plane per node: [`Obstacles`] finds the one
 //! that holds a node and gives its plane, so a new obstacle shape is one
 //! more source of planes here and nothing in the step. A held node's normal
 //! velocity change is prescribed within the implicit solve and filtered from

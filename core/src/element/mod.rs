@@ -315,7 +315,7 @@ pub(crate) fn current_edges<T: Real>(rest: &[[T; 3]; 3], du: &[[T; 3]; 3]) -> [[
 }
 
 /// The coefficients `[λ', μ'] = [λ, μ] / (36 V₀)` (Pa/m³) used by the kernels,
-/// from an element's [`element_stiffness`] and [`lame_per_young`].
+/// from an element's [`element_stiffness`](crate::material::element_stiffness) and [`lame_per_young`](crate::material::lame_per_young).
 /// For one element or one per lane.
 #[inline(always)]
 #[must_use]

@@ -135,24 +135,7 @@ where
         None
     };
     #[cfg(feature = "two-level")]
-    let whole =
-        (kind != Preconditioner::Mass).then_some(isa_inline!(
-            |work: &mut [NodeWork]| match rigid {
-                None => crate::precond::apply(nodes, work, &mut pre.parts, |_, r| r, project),
-                Some(body) => {
-                    // Rigid modes exact (`Rigid::finish`): P⁻¹ of the residual
-                    // less the rigid motion of its net force and torque. (Nothing
-                    // holds an isolated body, so `S r` is `r` here.)
-                    let force = body.fit(nodes, work, |_, w| w.r);
-                    let input = |i: usize, r: Vec3| match nodes.get(i) {
-                        Some(n) => axpy(r, -n.mass, body.at(n, force)),
-                        None => r,
-                    };
-                    crate::precond::apply(nodes, work, &mut pre.parts, input, project);
-                    body.finish(nodes, work, mass_coef, force)
-                }
-            }
-        ));
+    let whole = crate::precond::whole(kind, rigid, nodes, &mut pre.parts, project, mass_coef);
     #[cfg(not(feature = "two-level"))]
     let whole = {
         let _ = (&pre, mass_coef);
@@ -261,10 +244,7 @@ where
     if held.relaxed() {
         let project = sys.project;
         #[cfg(feature = "two-level")]
-        let whole =
-            (kind != Preconditioner::Mass).then_some(isa_inline!(|work: &mut [NodeWork]| {
-                crate::precond::apply(nodes, work, &mut pre.parts, |_, r| r, project)
-            }));
+        let whole = crate::precond::whole(kind, None, nodes, &mut pre.parts, project, 0.0);
         #[cfg(not(feature = "two-level"))]
         let whole = None::<fn(&mut [NodeWork]) -> f32>;
         return crate::contact::relax(
