@@ -12,8 +12,7 @@
 //! fallback (a degenerate QR frame, an irregular polar rotation search).
 
 use crate::backend::{Backend, NodeU, NodeX0, Portable, Row, WorkD, WorkQ, WorkR};
-#[cfg(any(feature = "qr", feature = "qr-rest-b"))]
-use crate::element::qr;
+use crate::element::formulation::{self, Edges, Formulation, LaneForces};
 use crate::element::{self, hform, lane3, Batch, ElementBlock, ElementForces, Method};
 use crate::lanes::LANES;
 use crate::math::Real;
@@ -319,148 +318,6 @@ struct ForcePass<'a, B, S> {
     totals: PassTotals,
 }
 
-/// A force kernel run on every lane of a block at once.
-trait LaneKernel {
-    /// The method the kernel computes: a lane it marks irregular is redone
-    /// by this method's one-element kernel alone. (With the block's runtime
-    /// method instead, every batched pass would carry all four one-element
-    /// kernels, and LLVM's loop passes, superlinear in the number of loops
-    /// of a function, would make the build with every method very slow.)
-    const METHOD: Method;
-    /// Whether the kernel updates the elements' rotations (`Polar`).
-    #[cfg(feature = "polar")]
-    const ROTATES: bool = false;
-    /// The kernel for the rest edges `rest`, displacement differences `du`
-    /// and current edges `cur` (m) of the block's elements, with
-    /// `lame = [λ', μ']`.
-    fn run(edges: &Edges, blk: &ElementBlock, lame: [Batch; 2]) -> LaneForces;
-}
-
-/// The edges `b − a, c − a, d − a` of a block's elements, in lanes (m):
-/// current, and (for the kernels that use them) rest and displacement.
-struct Edges {
-    #[cfg(feature = "polar")]
-    rest: [[Batch; 3]; 3],
-    #[cfg(feature = "linear")]
-    du: [[Batch; 3]; 3],
-    cur: [[Batch; 3]; 3],
-}
-
-/// What a [`LaneKernel`] returns.
-struct LaneForces {
-    /// Forces, gradients and energy of every lane.
-    k: element::Kernel<Batch>,
-    /// A value with the sign of each lane's current volume; only the sign is
-    /// used (QR's local `zd` in m, `6V` in m³ for the others).
-    volume: Batch,
-    /// Lanes whose result stands; the others are redone alone by
-    /// [`element::forces`] (the QR frame's fallbacks, the polar rotation
-    /// search's irregular paths).
-    regular: [bool; LANES],
-    /// The new rotations, if [`LaneKernel::ROTATES`].
-    #[cfg(feature = "polar")]
-    rot: [Batch; 4],
-}
-/// The QR kernel in lanes (`CURRENT_B` as in [`qr::forces`]).
-#[cfg(any(feature = "qr", feature = "qr-rest-b"))]
-struct QrLanes<const CURRENT_B: bool>;
-
-#[cfg(any(feature = "qr", feature = "qr-rest-b"))]
-impl<const CURRENT_B: bool> LaneKernel for QrLanes<CURRENT_B> {
-    // (With one of the two methods compiled, only its kernel is used.)
-    #[cfg(all(feature = "qr", feature = "qr-rest-b"))]
-    const METHOD: Method = if CURRENT_B {
-        Method::Qr
-    } else {
-        Method::QrRestB
-    };
-    #[cfg(not(feature = "qr-rest-b"))]
-    const METHOD: Method = Method::Qr;
-    #[cfg(not(feature = "qr"))]
-    const METHOD: Method = Method::QrRestB;
-    #[inline(always)]
-    fn run(edges: &Edges, blk: &ElementBlock, lame: [Batch; 2]) -> LaneForces {
-        let cur = &edges.cur;
-        let (fr, [n1, n3]) = qr::frame_regular(cur[0], cur[1], cur[2]);
-        // The frame is `qr::frame`'s exactly where neither squared length it
-        // divided by needs a fallback.
-        let mut regular = [false; LANES];
-        for ((r, a), b) in regular.iter_mut().zip(n1.0).zip(n3.0) {
-            // `&`, not `&&`: no branch, so the loop is vectorised.
-            *r = qr::regular(a) & qr::regular(b);
-        }
-        LaneForces {
-            k: qr::in_frame::<Batch, CURRENT_B>(&fr, &blk.rest, lame),
-            volume: fr.local[5],
-            regular,
-            #[cfg(feature = "polar")]
-            rot: blk.rot,
-        }
-    }
-}
-
-/// The `QrInvertible` kernel in lanes: `Qr`'s, with the inverted lanes
-/// marked irregular, for [`element::forces`] to redo alone
-/// ([`qr::forces_invertible`]).
-#[cfg(feature = "qr-invertible")]
-struct QrInvertibleLanes;
-
-#[cfg(feature = "qr-invertible")]
-impl LaneKernel for QrInvertibleLanes {
-    const METHOD: Method = Method::QrInvertible;
-    #[inline(always)]
-    fn run(edges: &Edges, blk: &ElementBlock, lame: [Batch; 2]) -> LaneForces {
-        let mut out = QrLanes::<true>::run(edges, blk, lame);
-        for (r, zd) in out.regular.iter_mut().zip(out.volume.0) {
-            *r &= zd >= 0.0;
-        }
-        out
-    }
-}
-
-/// The linear kernel in lanes.
-#[cfg(feature = "linear")]
-struct LinearLanes;
-
-#[cfg(feature = "linear")]
-impl LaneKernel for LinearLanes {
-    const METHOD: Method = Method::Linear;
-    #[inline(always)]
-    fn run(edges: &Edges, blk: &ElementBlock, lame: [Batch; 2]) -> LaneForces {
-        let cur = &edges.cur;
-        LaneForces {
-            k: element::linear::kernel(&edges.du, &blk.rest_grad, lame),
-            volume: crate::math::det3(cur[0], cur[1], cur[2]),
-            regular: [true; LANES],
-            #[cfg(feature = "polar")]
-            rot: blk.rot,
-        }
-    }
-}
-
-/// The polar kernel in lanes: the rotation search of every lane at once
-/// where it takes its regular path, the rest of the kernel in lanes.
-#[cfg(feature = "polar")]
-struct PolarLanes;
-
-#[cfg(feature = "polar")]
-impl LaneKernel for PolarLanes {
-    const METHOD: Method = Method::Polar;
-    const ROTATES: bool = true;
-    #[inline(always)]
-    fn run(edges: &Edges, blk: &ElementBlock, lame: [Batch; 2]) -> LaneForces {
-        let cur = &edges.cur;
-        let f = hform::grad_h(cur, &blk.rest_grad);
-        let rot = element::polar::closest_rotation_lanes(&f, blk.rot);
-        LaneForces {
-            k: element::polar::kernel(&rot.r, &rot.m, &edges.rest, &blk.rest_grad, lame),
-            volume: crate::math::det3(cur[0], cur[1], cur[2]),
-            regular: rot.regular,
-            rot: rot.q,
-        }
-    }
-}
-
 // Methods: functions rather than closures, inlined at each call, so that in
 // a step compiled for another instruction set (a `#[target_feature]`
 // function) they are compiled for it too.
@@ -476,22 +333,13 @@ impl<B: Backend, S: Sink> ForcePass<'_, B, S> {
         lanes: usize,
     ) {
         let whole = LANES > 1 && lanes == LANES;
-        match self.method {
-            #[cfg(feature = "qr")]
-            Method::Qr if whole => self.lanes::<QrLanes<true>, WITH_KV, COMMIT>(blk),
-            #[cfg(feature = "qr-rest-b")]
-            Method::QrRestB if whole => self.lanes::<QrLanes<false>, WITH_KV, COMMIT>(blk),
-            #[cfg(feature = "qr-invertible")]
-            Method::QrInvertible if whole => self.lanes::<QrInvertibleLanes, WITH_KV, COMMIT>(blk),
-            #[cfg(feature = "linear")]
-            Method::Linear if whole => self.lanes::<LinearLanes, WITH_KV, COMMIT>(blk),
-            #[cfg(feature = "polar")]
-            Method::Polar if whole => self.lanes::<PolarLanes, WITH_KV, COMMIT>(blk),
-            // One lane per block (a Cortex-M4F), or a method not compiled
-            // in (refused by `set_settings`, so never reached): one element
-            // at a time, which handles every method.
-            #[allow(unreachable_patterns)]
-            _ => self.one_by_one::<WITH_KV, COMMIT>(self.method, blk, 0..lanes),
+        // Whole blocks run the method's formulation in lanes; one lane per
+        // block (a Cortex-M4F), the partial block, or a method not compiled
+        // in (refused by `set_settings`, so never reached) run one element
+        // at a time, which handles every method.
+        let visit = Lanes::<'_, '_, B, S, WITH_KV, COMMIT> { pass: self, blk };
+        if !(whole && formulation::visit(visit.pass.method, visit)) {
+            self.one_by_one::<WITH_KV, COMMIT>(self.method, blk, 0..lanes);
         }
     }
 
@@ -501,7 +349,7 @@ impl<B: Backend, S: Sink> ForcePass<'_, B, S> {
     /// passes take minutes over it; one call per block of eight elements
     /// costs nothing measurable.
     #[inline(always)]
-    fn lanes<K: LaneKernel, const WITH_KV: bool, const COMMIT: bool>(
+    fn lanes<K: Formulation, const WITH_KV: bool, const COMMIT: bool>(
         &mut self,
         blk: &mut ElementBlock,
     ) {
@@ -571,7 +419,7 @@ impl<B: Backend, S: Sink> ForcePass<'_, B, S> {
     /// bits are those of one element at a time. If the kernel marks a lane
     /// irregular, [`Self::lane_by_lane`] does the block instead.
     #[inline(always)]
-    fn batched<K: LaneKernel, const WITH_KV: bool, const COMMIT: bool>(
+    fn batched<K: Formulation, const WITH_KV: bool, const COMMIT: bool>(
         &mut self,
         blk: &mut ElementBlock,
     ) {
@@ -621,7 +469,7 @@ impl<B: Backend, S: Sink> ForcePass<'_, B, S> {
     /// four corners first kept 36 vectors live, and the pass was bound by
     /// its stores to the stack).
     #[inline(always)]
-    fn kernel<K: LaneKernel>(&self, blk: &ElementBlock) -> Option<([Batch; 2], LaneForces)> {
+    fn kernel<K: Formulation>(&self, blk: &ElementBlock) -> Option<([Batch; 2], LaneForces)> {
         let (b, nodes) = (self.b, self.nodes);
         let at = b.corners::<Node>(&blk.nodes, nodes.len())?;
         let (_rest, _du, cur) = gather_edges(b, nodes, &at);
@@ -643,7 +491,7 @@ impl<B: Backend, S: Sink> ForcePass<'_, B, S> {
     /// order: a lane the kernel marks irregular is redone alone with its
     /// method's one-element kernel, the others take the kernel's results.
     #[inline(always)]
-    fn lane_by_lane<K: LaneKernel, const WITH_KV: bool, const COMMIT: bool>(
+    fn lane_by_lane<K: Formulation, const WITH_KV: bool, const COMMIT: bool>(
         &mut self,
         blk: &mut ElementBlock,
     ) {
@@ -701,6 +549,22 @@ impl<B: Backend, S: Sink> ForcePass<'_, B, S> {
     fn emit_kv(&mut self, ids: [u16; 4], kv: &[Vec3; 3]) {
         let sink = &mut self.sink;
         scatter(ids, kv, |i, v| sink.add_kv(i, v));
+    }
+}
+
+/// A whole block of a force pass, run with the formulation that
+/// [`formulation::visit`] picks for the pass's method.
+struct Lanes<'p, 'a, B, S, const WITH_KV: bool, const COMMIT: bool> {
+    pass: &'p mut ForcePass<'a, B, S>,
+    blk: &'p mut ElementBlock,
+}
+
+impl<B: Backend, S: Sink, const WITH_KV: bool, const COMMIT: bool> formulation::Visit
+    for Lanes<'_, '_, B, S, WITH_KV, COMMIT>
+{
+    #[inline(always)]
+    fn visit<F: Formulation>(self) {
+        self.pass.lanes::<F, WITH_KV, COMMIT>(self.blk);
     }
 }
 

@@ -3,6 +3,7 @@
 //! method carries only that kernel.
 
 mod block;
+pub(crate) mod formulation;
 pub(crate) mod hform;
 #[cfg(feature = "linear")]
 pub(crate) mod linear;
