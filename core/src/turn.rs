@@ -9,8 +9,8 @@ use crate::storage::{Node, NodeWork};
 /// each one gains a factor of about `h |ω|/2` (at most ½ where it runs).
 const TURN_ITERATIONS: u32 = 24;
 
-/// Moves an isolated body over the step (end displacement in `d`, velocity
-/// in `q`) with its rotation made a rotation, not a step along the tangents.
+/// Moves an isolated body over the step (its end state in
+/// [`NodeWork::end`]) with its rotation made a rotation, not a step along the tangents.
 ///
 /// `x' = x + h v'` moves a body spinning at `ω` along its tangents, which
 /// stretches it by `(h |ω|)²/2` each step. A body that moves as one over
@@ -65,7 +65,7 @@ pub(crate) fn turn(
     let Some(inertia) = body.inertia else {
         return false;
     };
-    let (vc, l) = body.momenta(nodes, work, |n, w| scale(w.q, n.mass));
+    let (vc, l) = body.momenta(nodes, work, |n, w| scale(w.end().1, n.mass));
     let Some(omega) = solve3(&inertia, l) else {
         return false;
     };
@@ -94,14 +94,14 @@ pub(crate) fn turn(
     let mut gained = [0.0f32; 3];
     for (n, w) in nodes.iter().zip(work.iter_mut()) {
         let y = sub(n.position(), body.c);
-        let vr = sub(w.q, vc);
+        let v = w.end().1;
+        let vr = sub(v, vc);
         let vd = sub(vr, cross(omega, y));
         let t = axpy(y, h, vd);
         let e = axpy(sub(r.apply(t), t), h, vd);
         let f = sub(r.apply(vr), vr);
         gained = axpy(gained, n.mass, add(cross(e, add(vr, f)), cross(y, f)));
-        w.d = add(n.u, axpy(e, h, vc));
-        w.q = add(w.q, f);
+        w.set_end(add(n.u, axpy(e, h, vc)), add(v, f));
         add_inertia(&mut inertia1, n.mass, add(y, e));
     }
     let Some(delta) = solve3(&inertia1, scale(gained, -1.0)) else {
@@ -111,7 +111,8 @@ pub(crate) fn turn(
     };
     let c1 = axpy(body.c, h, vc);
     for (n, w) in nodes.iter().zip(work.iter_mut()) {
-        w.q = add(w.q, cross(delta, sub(add(n.x0, w.d), c1)));
+        let (u, v) = w.end();
+        w.set_end(u, add(v, cross(delta, sub(add(n.x0, u), c1))));
     }
     true
 }

@@ -43,7 +43,7 @@ const HELD: f32 = 1e4;
 ///   orthogonal; added linearly, `y + h s θ × y` would stretch the body by
 ///   `|h s θ|²/2`). The shape, and so the elastic energy, do not change.
 ///
-/// `work` holds the step's end: displacement in `d`, velocity in `q`;
+/// `work` holds the step's end ([`NodeWork::end`]);
 /// `body` is the body at the step's start, with its inertia.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn impact(
@@ -56,7 +56,7 @@ pub(crate) fn impact(
     work: &mut [NodeWork],
     share: impl FnOnce(&Rigid) -> f32,
 ) -> Vec3 {
-    let moving = body.fit(nodes, work, |n, w| scale(w.q, n.mass));
+    let moving = body.fit(nodes, work, |n, w| scale(w.end().1, n.mass));
     // The nodes arriving, and the held nodes the motion would push into the
     // ground (weight `HELD`, target 0). An active set over at most three
     // fits: a held node joins once an earlier fit pushed it in, and stays.
@@ -78,8 +78,9 @@ pub(crate) fn impact(
                     active += 1;
                 }
             } else {
-                let vn = dot(g.normal, w.q).max(dot(g.normal, body.at(n, moving)));
-                if vn < 0.0 && Contact::still(g).distance(add(n.x0, w.d)) < 0.0 {
+                let (u, v) = w.end();
+                let vn = dot(g.normal, v).max(dot(g.normal, body.at(n, moving)));
+                if vn < 0.0 && Contact::still(g).distance(add(n.x0, u)) < 0.0 {
                     stop.add(p, n.mass, -vn);
                 }
             }
@@ -103,9 +104,10 @@ pub(crate) fn impact(
     let (mut along, mut norm2, mut mc) = (0.0f32, 0.0f32, [0.0f32; 3]);
     for (n, w) in nodes.iter().zip(work.iter()) {
         let dv = stop.at(n.position(), m);
-        along += n.mass * dot(sub(w.q, settle), dv);
+        let (u, v) = w.end();
+        along += n.mass * dot(sub(v, settle), dv);
         norm2 += n.mass * dot(dv, dv);
-        mc = axpy(mc, n.mass, add(n.x0, w.d));
+        mc = axpy(mc, n.mass, add(n.x0, u));
     }
     // The share takes a pass over the elements: only for an impact.
     let s = -along / norm2;
@@ -125,9 +127,9 @@ pub(crate) fn impact(
     for (n, w) in nodes.iter().zip(work.iter_mut()) {
         let dv = scale(stop.at(n.position(), m), s);
         impulse = axpy(impulse, n.mass, dv);
-        w.q = add(w.q, dv);
-        let ry = turn.apply(sub(add(n.x0, w.d), c));
-        w.d = sub(add(add(c, ry), shift), n.x0);
+        let (u, v) = w.end();
+        let ry = turn.apply(sub(add(n.x0, u), c));
+        w.set_end(sub(add(add(c, ry), shift), n.x0), add(v, dv));
     }
     impulse
 }

@@ -485,7 +485,8 @@ pub(crate) fn lands(ground: Ground, n: &Node, u: Vec3) -> bool {
     false
 }
 
-/// Whether any node ends below the ground (end displacements in `d`).
+/// Whether any node ends below the ground (end displacements in
+/// [`NodeWork::end`]).
 #[cfg(feature = "free-rotation")]
 #[inline(always)]
 pub(crate) fn below(ground: Ground, nodes: &[Node], work: &[NodeWork]) -> bool {
@@ -495,7 +496,7 @@ pub(crate) fn below(ground: Ground, nodes: &[Node], work: &[NodeWork]) -> bool {
         return nodes
             .iter()
             .zip(work.iter())
-            .any(|(n, w)| Contact::still(g).distance(add(n.x0, w.d)) < 0.0);
+            .any(|(n, w)| Contact::still(g).distance(add(n.x0, w.end().0)) < 0.0);
     }
     false
 }
