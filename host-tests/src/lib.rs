@@ -218,3 +218,9 @@ pub fn smooth_surface(mesh: &CoreMesh, levels: u32) -> corofem_io::Surface {
     }
     s
 }
+
+/// The code examples of docs/library.md (the library beyond the README's
+/// first example), compiled and run as doctests.
+#[cfg(doctest)]
+#[doc = include_str!("../../docs/library.md")]
+pub struct LibraryGuide;
