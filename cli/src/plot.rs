@@ -196,9 +196,12 @@ pub fn figure(json: &Value) -> Result<Figure, String> {
 pub fn ticks(lo: f64, hi: f64, n: usize) -> (Vec<f64>, f64, f64) {
     let (lo, hi) = if hi > lo {
         (lo, hi)
+    } else if lo == 0.0 {
+        // Zero throughout: the axis from 0 to 1.
+        (0.0, 1.0)
     } else {
-        // A constant: a unit-wide range around it.
-        let pad = if lo == 0.0 { 1.0 } else { lo.abs() * 0.5 };
+        // A constant: a range around it.
+        let pad = lo.abs() * 0.5;
         (lo - pad, lo + pad)
     };
     let raw = (hi - lo) / n.max(1) as f64;
@@ -284,6 +287,9 @@ pub fn svg(f: &Figure) -> String {
             .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
                 (lo.min(p.1), hi.max(p.1))
             });
+        // Energies, magnitudes and counts are never negative: their axis
+        // starts at 0.
+        let y_lo = if y_lo >= 0.0 { 0.0 } else { y_lo };
         let (yt, y0, y1) = ticks(y_lo, y_hi, 4);
         let px = |x: f64| LEFT + (x - x0) / (x1 - x0) * plot_w;
         let py = |y: f64| top + PANEL - (y - y0) / (y1 - y0) * PANEL;
@@ -368,9 +374,10 @@ mod tests {
         let (t, lo, hi) = ticks(-3.2, 17.0, 4);
         assert_eq!((lo, hi), (-10.0, 20.0));
         assert_eq!(t, vec![-10.0, 0.0, 10.0, 20.0]);
-        // A constant gets a range around it.
+        // A constant gets a range around it; zero, the range 0 to 1.
         let (_, lo, hi) = ticks(2.0, 2.0, 4);
         assert!(lo < 2.0 && hi > 2.0);
+        assert_eq!(ticks(0.0, 0.0, 4).1..ticks(0.0, 0.0, 4).2, 0.0..1.0);
         assert_eq!(label(0.6000000000000001), "0.6");
         assert_eq!(label(1.5e-7), "1.5e-7");
     }

@@ -4,11 +4,13 @@
     cargo build --release -p corofem-cli
     python3 examples/settings/measure.py [--corofem PATH]
 
-A cantilever (1 x 0.2 x 0.2 m, 20 x 4 x 4 cells, 1,920 tets; E = 1 MPa,
-rho = 1000 kg/m^3) clamped at x = 0 falls under gravity from rest for 0.3 s.
+A cantilever (1 x 0.2 x 0.2 m, 20 x 4 x 4 cells, 1,920 tets; E = 10 MPa
+unless --young says otherwise, rho = 1000 kg/m^3) clamped at x = 0 falls
+under gravity from rest for 0.3 s.
 Each row changes one setting of the scene's defaults and reports:
 
-* ms/step: the median wall time of a step (`timing.ms_per_step_median`);
+* ms/step: the median wall time of a step (`timing.ms_per_step_median`),
+  the fastest of three runs;
 * CG/step: the CG iterations a step ran, averaged over the history;
 * error: the RMS distance of the final nodes from a reference run, over the
   RMS displacement of the reference. For the solver's settings the reference
@@ -59,7 +61,12 @@ every = {every}
 CONVERGED = 'preconditioner = "two-level"\ncg_iterations = 400\ncg_tolerance = 1e-7'
 
 
-def run(corofem, workdir, name, solver="", dt=0.001, poisson=0.3, young=1.0e6, t_end=0.3):
+YOUNG = [1.0e7]
+REPEAT = 3
+
+
+def run(corofem, workdir, name, solver="", dt=0.001, poisson=0.3, young=None, t_end=0.3):
+    young = YOUNG[0] if young is None else young
     steps = round(t_end / dt)
     every = max(1, steps // 60)
     scene = BASE.format(young=young, poisson=poisson, dt=dt, steps=steps, solver=solver, every=every)
@@ -67,9 +74,15 @@ def run(corofem, workdir, name, solver="", dt=0.001, poisson=0.3, young=1.0e6, t
     out = os.path.join(workdir, name + ".json")
     with open(path, "w") as f:
         f.write(scene)
-    subprocess.run([corofem, "run", path, "--out", out, "--quiet"], check=True)
-    with open(out) as f:
-        return json.load(f)
+    # The fastest of a few runs' medians: times on a shared machine vary.
+    best = None
+    for _ in range(REPEAT if steps else 1):
+        subprocess.run([corofem, "run", path, "--out", out, "--quiet"], check=True)
+        with open(out) as f:
+            r = json.load(f)
+        if best is None or r["timing"]["ms_per_step_median"] < best["timing"]["ms_per_step_median"]:
+            best = r
+    return best
 
 
 REST = []
@@ -106,7 +119,9 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     target = os.environ.get("CARGO_TARGET_DIR", "target")
     ap.add_argument("--corofem", default=os.path.join(target, "release", "corofem"))
+    ap.add_argument("--young", type=float, default=YOUNG[0], help="Young's modulus of the beam (Pa)")
     args = ap.parse_args()
+    YOUNG[0] = args.young
     if not os.path.exists(args.corofem):
         sys.exit("%s is missing: run `cargo build --release -p corofem-cli` first" % args.corofem)
     with tempfile.TemporaryDirectory() as w:

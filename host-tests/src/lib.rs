@@ -8,6 +8,15 @@ use corofem::{BoxMesh, BuildOptions, Material, Scene, Storage, VecScene};
 
 pub mod reliability;
 
+/// A progress line for a test that runs for many seconds: written to the
+/// terminal's stderr directly, so it shows while the test harness captures
+/// the test's own output (`cargo test` shows nothing else until the test
+/// ends). `what` says what the test is doing, `test` which test it is.
+pub fn progress(test: &str, what: std::fmt::Arguments<'_>) {
+    use std::io::Write as _;
+    let _ = writeln!(std::io::stderr().lock(), "    {test}: {what}");
+}
+
 /// A mesh in the core's input form.
 #[derive(Clone, Debug)]
 pub struct CoreMesh {
