@@ -23,7 +23,7 @@ pub struct RunResult {
     pub method: &'static str,
     /// Time steps run (for a static solve: Newton iterations run).
     pub steps: u64,
-    /// Static solves only: whether Newton converged.
+    /// Static solves only: how the Newton iterations ended.
     #[serde(rename = "static", skip_serializing_if = "Option::is_none")]
     pub static_solve: Option<StaticOutcome>,
     /// Wall-clock timing.

@@ -124,6 +124,22 @@ fn mesh_scene() -> String {
     "[mesh]\nfile = \"m.tetmesh\"\n[solver]\nsteps = 2\n".to_owned()
 }
 
+/// `info m.tetmesh` and a run of it give the same reason `why`; returns
+/// the run's message.
+fn info_and_run_reject(dir: &TempDir, why: &str) -> String {
+    let info = text(&corofem(&["info", "m.tetmesh"], &dir.0));
+    assert!(
+        info.contains(&format!("corofem run    rejects the mesh: {why}")),
+        "{info}"
+    );
+    let e = fails(dir, &mesh_scene());
+    assert!(
+        e.contains(&format!("scene.toml: [mesh] file = \"m.tetmesh\": {why}")),
+        "{e}"
+    );
+    e
+}
+
 #[test]
 fn info_and_run_agree_on_a_flat_sliver() {
     let dir = TempDir::new("sliver");
@@ -131,17 +147,11 @@ fn info_and_run_agree_on_a_flat_sliver() {
     let o = corofem(&["info", "m.tetmesh"], &dir.0);
     assert!(o.status.success(), "{}", text(&o));
     let info = text(&o);
-    let why = "tetrahedron 0 is flat: its volume 1.667e-31 is 5.9e-32 of its longest edge \
-               (1.414e0) cubed, and the solver needs more than 1e-12";
     assert!(info.contains("1 degenerate"), "{info}");
-    assert!(
-        info.contains(&format!("corofem run    rejects the mesh: {why}")),
-        "{info}"
-    );
-    let e = fails(&dir, &mesh_scene());
-    assert!(
-        e.contains(&format!("scene.toml: [mesh] file = \"m.tetmesh\": {why}")),
-        "{e}"
+    info_and_run_reject(
+        &dir,
+        "tetrahedron 0 is flat: its volume 1.667e-31 is 5.9e-32 of its longest edge \
+         (1.414e0) cubed, and the solver needs more than 1e-12",
     );
     // A usable tetrahedron: info says so, run runs it.
     dir.write("m.tetmesh", one_tet("0 0 1"));
@@ -154,17 +164,10 @@ fn info_and_run_agree_on_a_flat_sliver() {
 fn info_and_run_agree_on_a_coordinate_beyond_f32() {
     let dir = TempDir::new("coordinate");
     dir.write("m.tetmesh", one_tet("0 0 1e39"));
-    let why = "node 3 has z = 1e39, beyond f32's range (at most 3.4e38 in magnitude after \
-               [mesh] scale; the solver computes in f32)";
-    let info = text(&corofem(&["info", "m.tetmesh"], &dir.0));
-    assert!(
-        info.contains(&format!("corofem run    rejects the mesh: {why}")),
-        "{info}"
-    );
-    let e = fails(&dir, &mesh_scene());
-    assert!(
-        e.contains(&format!("scene.toml: [mesh] file = \"m.tetmesh\": {why}")),
-        "{e}"
+    let e = info_and_run_reject(
+        &dir,
+        "node 3 has z = 1e39, beyond f32's range (at most 3.4e38 in magnitude after \
+         [mesh] scale; the solver computes in f32)",
     );
     assert!(!e.contains("NaN"), "{e}");
     // The test is on the scaled coordinate: 1e37 at scale 100 is 1e39.
