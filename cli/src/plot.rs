@@ -255,7 +255,7 @@ pub fn svg(f: &Figure) -> String {
     const RIGHT: f64 = 200.0;
     const PANEL: f64 = 150.0;
     const GAP: f64 = 46.0;
-    const TOP: f64 = 40.0;
+    const TOP: f64 = 58.0;
     let plot_w = W - LEFT - RIGHT;
     let h = TOP + f.panels.len() as f64 * (PANEL + GAP) + 10.0;
     let (x_lo, x_hi) = f
