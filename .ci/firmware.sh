@@ -117,7 +117,7 @@ EOF
 }
 
 step "host: the firmware scene at every size"
-(cd "$ROOT" && cargo test -q -p corofem-host-tests --test firmware_hash -- --nocapture --test-threads 1) \
+(cd "$ROOT" && cargo test -q -p corofem-host-tests --test host firmware_hash:: -- --nocapture --test-threads 1) \
   >"$OUT/host.txt" 2>&1 || { cat "$OUT/host.txt"; bad "host test"; finish; }
 # The scene with the lumped mass (firmware-scene lines) and with the
 # two-level preconditioner (firmware-scene-two-level lines).

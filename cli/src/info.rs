@@ -19,8 +19,19 @@ pub fn info(path: &Path) -> CliResult<()> {
     }
     let mesh = corofem_io::read_mesh(path).map_err(|e| CliError(e.to_string()))?;
     let stats = corofem_io::mesh_stats(&mesh);
-    print!("{}", report(&path.display().to_string(), &stats));
+    let mut text = report(&path.display().to_string(), &stats);
+    text.push_str(&usable_line(corofem_io::unusable(&mesh, 1.0)));
+    print!("{text}");
     Ok(())
+}
+
+/// The `corofem run` line: whether the solver can use the mesh (at
+/// `[mesh] scale = 1`), by the test `run` applies.
+pub fn usable_line(why: Option<corofem_io::Unusable>) -> String {
+    match why {
+        None => "  corofem run    usable (at [mesh] scale = 1)\n".to_owned(),
+        Some(why) => format!("  corofem run    rejects the mesh: {why}\n"),
+    }
 }
 
 /// The human-readable report of `stats` for the file `name`.
@@ -155,7 +166,7 @@ fn orientation(s: &MeshStats) -> String {
     }
     if s.zero_volume_tets > 0 {
         parts.push(format!(
-            "{} degenerate (zero volume: corofem run rejects the mesh)",
+            "{} degenerate (zero volume, or flat to 1e-12 of the longest edge cubed: corofem run rejects the mesh)",
             s.zero_volume_tets
         ));
     }
@@ -240,7 +251,8 @@ mod tests {
         assert!(
             r.contains(
                 "orientation    1 negatively oriented (corofem run rejects them unless [mesh] \
-                 reorient = true), 1 degenerate (zero volume: corofem run rejects the mesh), \
+                 reorient = true), 1 degenerate (zero volume, or flat to 1e-12 of the longest \
+                 edge cubed: corofem run rejects the mesh), \
                  1 positively oriented"
             ),
             "{r}"

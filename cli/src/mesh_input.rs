@@ -26,6 +26,12 @@ pub fn load(spec: &MeshSpec, file: &str, notes: &mut Vec<String>) -> CliResult<C
         MeshSource::File { path, given } => {
             let mut mesh = corofem_io::read_mesh(path)
                 .map_err(|e| CliError(format!("{file}: [mesh] file = {given:?}: {e}")))?;
+            // The test `corofem info` reports, in the file's numbering.
+            if let Some(why) = corofem_io::unusable(&mesh, spec.scale) {
+                return Err(CliError(format!(
+                    "{file}: [mesh] file = {given:?}: {why} (corofem info {given} shows the mesh's figures)"
+                )));
+            }
             let dropped = corofem_io::drop_unused_nodes(&mut mesh);
             if dropped > 0 {
                 notes.push(format!(

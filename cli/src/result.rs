@@ -23,7 +23,7 @@ pub struct RunResult {
     pub method: &'static str,
     /// Time steps run (for a static solve: Newton iterations run).
     pub steps: u64,
-    /// Static solves only: whether Newton converged.
+    /// Static solves only: how the Newton iterations ended.
     #[serde(rename = "static", skip_serializing_if = "Option::is_none")]
     pub static_solve: Option<StaticOutcome>,
     /// Wall-clock timing.
@@ -71,13 +71,19 @@ pub struct MeshCounts {
 /// at the last Newton iteration.
 #[derive(Debug, Clone, Copy, Serialize)]
 pub struct StaticOutcome {
-    /// A stopping rule was met: `"force"` or `"update"` says which.
+    /// The out-of-balance force of the final shape is small: `force ≤
+    /// tolerance`.
     pub converged: bool,
-    /// `"force"`: `residual ≤ tolerance`. `"update"`: `update ≤
-    /// update_tolerance` and `cg_residual ≤ cg_tolerance`. `null`: neither.
+    /// The rule that stopped the Newton iterations. `"force"`: `residual ≤
+    /// tolerance`. `"update"`: `update ≤ update_tolerance` and `cg_residual
+    /// ≤ cg_tolerance` (the body no longer moves; `force` says whether it
+    /// is in equilibrium). `null`: neither, within `newton_iterations`.
     pub met: Option<&'static str>,
     /// Out-of-balance force over the load, before the last update.
     pub residual: f32,
+    /// Out-of-balance force over the load of the final shape, after the
+    /// last update: what `converged` is about.
+    pub force: f32,
     /// What `residual` is held to (`[solver] newton_tolerance`).
     pub tolerance: f32,
     /// RMS of the last update over the RMS displacement (0 when no update

@@ -48,7 +48,22 @@ pub fn run(opts: &RunOptions) -> CliResult<()> {
             eprintln!("note: {n}");
         }
     }
+    let records = match spec.static_solve {
+        Some(st) => u64::from(st.max_iterations),
+        None => spec.steps / spec.every + 2,
+    };
+    let vtk_stride = records.div_ceil(MAX_VTK_FRAMES).max(1);
+    if opts.vtk.is_some() && vtk_stride > 1 && !opts.quiet {
+        eprintln!(
+            "note: --vtk: the run records up to {} history entries ([solver] steps / [output] every); \
+             writing a VTK frame every {} entries, at most {} frames (set [output] every to choose)",
+            thousands(records),
+            thousands(vtk_stride),
+            thousands(MAX_VTK_FRAMES)
+        );
+    }
     let mut sim = Sim::build(&spec, &mesh)?;
+    sim.vtk_stride = vtk_stride;
     sim.visual = Visual::load(&spec, &sim.scene)?;
     if let (Some(visual), Some(dir)) = (&mut sim.visual, &opts.vtk) {
         visual.start_vtk(dir)?;
@@ -100,7 +115,7 @@ pub fn run(opts: &RunOptions) -> CliResult<()> {
     if !opts.quiet {
         let vtk = opts.vtk.as_deref().map(|dir| VtkWritten {
             dir,
-            frames: result.history.len(),
+            frames: (result.history.len() as u64).div_ceil(vtk_stride),
             surface_frames,
         });
         eprintln!(
@@ -118,6 +133,10 @@ pub fn run(opts: &RunOptions) -> CliResult<()> {
     }
     Ok(())
 }
+
+/// Most VTK frames `--vtk` writes: beyond them it writes every n-th
+/// history record (a frame of a 10k-node mesh is about 1 MB).
+pub const MAX_VTK_FRAMES: u64 = 10_000;
 
 /// Notes for scene parts that a static solve ignores.
 fn static_notes(spec: &SceneSpec, notes: &mut Vec<String>) {
@@ -201,6 +220,8 @@ struct Sim<'a> {
     forces: Vec<[f32; 3]>,
     /// The `[visual]` surface, bound after the build.
     visual: Option<Visual>,
+    /// `--vtk` writes the frame of every `vtk_stride`-th history record.
+    vtk_stride: u64,
 }
 
 impl<'a> Sim<'a> {
@@ -308,6 +329,7 @@ impl<'a> Sim<'a> {
             probes,
             forces: vec![[0.0; 3]; n],
             visual: None,
+            vtk_stride: 1,
         })
     }
 
@@ -376,7 +398,23 @@ impl<'a> Sim<'a> {
                     k + 1
                 ))
             };
-            let stats = stepped.map_err(|e| diverged(e.to_string()))?;
+            let stats = stepped.map_err(|e| match e {
+                // Not a divergence: the scene placed a probe inside the body.
+                corofem::StepError::ProbeInsideBody { probe, node } => {
+                    let label = spec
+                        .probes
+                        .get(probe as usize)
+                        .map_or_else(|| format!("probe {probe}"), |p| p.label.clone());
+                    CliError(format!(
+                        "{}: {label} starts inside the body at step {} (t = {t_end} s): \
+                         node {node} is inside it; move its `position` (or its `path`'s \
+                         first point) so that it starts outside",
+                        spec.file,
+                        k + 1
+                    ))
+                }
+                e => diverged(e.to_string()),
+            })?;
             if !stats.cg_residual.is_finite() {
                 return Err(diverged("the CG residual is not finite".into()));
             }
@@ -415,6 +453,7 @@ impl<'a> Sim<'a> {
         quiet: bool,
     ) -> CliResult<Outcome> {
         let file = &self.spec.file;
+        self.check_static_supports()?;
         if let Some(tool) = &self.tool {
             let target = tool.target(tool.spec.path.end_time());
             self.scene
@@ -460,8 +499,27 @@ impl<'a> Sim<'a> {
             }
         }
         let set = &st.settings;
+        // The out-of-balance force of the final shape: the last iteration
+        // measured it before its update. A solve with an unbounded
+        // tolerance measures it and makes no update (nor CG solve).
+        let force = match last {
+            Some(n) if !(n.converged && n.residual <= set.tolerance) => {
+                let measure = corofem::StaticSettings {
+                    max_iterations: 1,
+                    tolerance: f32::INFINITY,
+                    two_level: false,
+                    ..*set
+                };
+                self.scene
+                    .solve_static(&measure, |_| {})
+                    .map(|m| m.residual)
+                    .unwrap_or(n.residual)
+            }
+            Some(n) => n.residual,
+            None => 0.0,
+        };
         let outcome = last.map(|n| StaticOutcome {
-            converged: n.converged,
+            converged: force <= set.tolerance,
             met: if !n.converged {
                 None
             } else if n.residual <= set.tolerance {
@@ -470,6 +528,7 @@ impl<'a> Sim<'a> {
                 Some("update")
             },
             residual: n.residual,
+            force,
             tolerance: set.tolerance,
             update: n.update,
             update_tolerance: set.update_tolerance,
@@ -478,20 +537,8 @@ impl<'a> Sim<'a> {
         });
         progress.finish();
         if let Some(o) = outcome.filter(|o| !o.converged && !quiet) {
-            eprintln!(
-                "warning: {file}: the static solve did NOT converge in {} Newton iterations: \
-                 out-of-balance force {:.3e} of the load (newton_tolerance {:.1e}); \
-                 last update {:.3e} of the displacement (needs <= {:.1e}) from a CG solve \
-                 that reached {:.3e} (needs <= cg_tolerance {:.1e}). Raise [solver] \
-                 newton_iterations, or cg_iterations if the CG solves stop short",
-                st.max_iterations,
-                o.residual,
-                o.tolerance,
-                o.update,
-                o.update_tolerance,
-                o.cg_residual,
-                o.cg_tolerance,
-            );
+            let kind = if o.met.is_some() { "note" } else { "warning" };
+            eprintln!("{kind}: {file}: {}", static_warning(&o, st.max_iterations));
         }
         Ok(Outcome {
             steps: history.len() as u64,
@@ -500,6 +547,40 @@ impl<'a> Sim<'a> {
             history,
             extremes,
         })
+    }
+
+    /// A static solve needs supports that stop the body turning: fixed or
+    /// grabbed nodes not all on one line. Held by one or two nodes (or a
+    /// row of them), the stiffness is singular and Newton's first update
+    /// is unbounded.
+    fn check_static_supports(&self) -> CliResult<()> {
+        let held: Vec<u32> = (0..self.scene.node_count() as u32)
+            .filter(|&i| self.scene.is_fixed(i))
+            .chain(self.tool.iter().flat_map(|t| t.nodes.iter().copied()))
+            .collect();
+        let points: Vec<[f64; 3]> = held
+            .iter()
+            .filter_map(|&i| self.scene.position(i))
+            .map(|p| p.map(f64::from))
+            .collect();
+        if points.is_empty() || !on_one_line(&points) {
+            // No support at all is the core's `Unconstrained` error.
+            return Ok(());
+        }
+        let mut ids: Vec<u32> = held.clone();
+        ids.sort_unstable();
+        ids.dedup();
+        let which = match ids.len() {
+            1 => format!("1 node (node {})", ids[0]),
+            2 => format!("2 nodes (nodes {} and {})", ids[0], ids[1]),
+            n => format!("{n} nodes, all on one line"),
+        };
+        Err(CliError(format!(
+            "{}: [solver] static = true: the body is held by {which} ([[fixed]] and [tool]), \
+             which leaves it free to turn about them: it has no static equilibrium. Hold at \
+             least 3 nodes that are not on one line, or run it in time steps",
+            self.spec.file
+        )))
     }
 
     /// Force the body exerts on the tool's spring in a static solve (N):
@@ -566,7 +647,8 @@ impl<'a> Sim<'a> {
         entry: HistoryEntry,
         vtk: Option<&mut VtkSeries>,
     ) -> CliResult<()> {
-        if let Some(series) = vtk {
+        let due = history.len() as u64 % self.vtk_stride == 0;
+        if let Some(series) = vtk.filter(|_| due) {
             let x: Vec<[f32; 3]> = self.scene.positions().collect();
             let v: Vec<[f32; 3]> = self.scene.velocities().collect();
             // Static solves have no time: the iteration number stands in.
@@ -606,6 +688,61 @@ impl<'a> Sim<'a> {
             velocities,
             inverted,
         })
+    }
+}
+
+/// Whether `points` lie on one line (or are one point), to 1e-9 of their
+/// spread.
+fn on_one_line(points: &[[f64; 3]]) -> bool {
+    let a = points[0];
+    let sub = |p: [f64; 3], q: [f64; 3]| [p[0] - q[0], p[1] - q[1], p[2] - q[2]];
+    let len = |v: [f64; 3]| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    // The point farthest from the first sets the line's direction.
+    let far = points
+        .iter()
+        .copied()
+        .max_by(|p, q| len(sub(*p, a)).total_cmp(&len(sub(*q, a))))
+        .unwrap_or(a);
+    let d = sub(far, a);
+    let spread = len(d);
+    if spread == 0.0 {
+        return true;
+    }
+    points.iter().all(|&p| {
+        let r = sub(p, a);
+        let c = [
+            r[1] * d[2] - r[2] * d[1],
+            r[2] * d[0] - r[0] * d[2],
+            r[0] * d[1] - r[1] * d[0],
+        ];
+        len(c) / spread <= 1e-9 * spread
+    })
+}
+
+/// The note or warning for a static solve whose out-of-balance force
+/// stayed above `newton_tolerance`: which rule stopped it, and what to
+/// change.
+fn static_warning(o: &StaticOutcome, max_iterations: u32) -> String {
+    let force = format!(
+        "the out-of-balance force is {:.2e} of the load (newton_tolerance {:.1e})",
+        o.force, o.tolerance
+    );
+    match o.met {
+        Some(_) => format!(
+            "the static solve stopped when its updates no longer moved the body ({:.1e} of \
+             the displacement, rule 1e-4, from CG solved to cg_tolerance): the shape has \
+             converged, but {force}, so the result says \"converged\": false. That force is \
+             the f32 round-off floor of this body: more Newton iterations do not lower it \
+             (docs/scene-format.md, \"Static solve\")",
+            o.update
+        ),
+        None => format!(
+            "the static solve did NOT converge in {max_iterations} Newton iterations: {force}; \
+             last update {:.3e} of the displacement (needs <= {:.1e}) from a CG solve that \
+             reached {:.3e} (needs <= cg_tolerance {:.1e}). Raise [solver] newton_iterations, \
+             or cg_iterations if the CG solves stop short",
+            o.update, o.update_tolerance, o.cg_residual, o.cg_tolerance
+        ),
     }
 }
 
@@ -650,7 +787,7 @@ fn norm(v: [f32; 3]) -> f32 {
 /// Where the VTK frames went, for the summary.
 struct VtkWritten<'a> {
     dir: &'a Path,
-    frames: usize,
+    frames: u64,
     /// Frames of the `[visual]` surface, if the scene has one.
     surface_frames: Option<usize>,
 }
@@ -670,28 +807,34 @@ fn summary(
     lines.push((
         "scene",
         format!(
-            "{} ({}, {} nodes, {} tets, {})",
+            "{} ({}, {}, {}, {})",
             spec.file,
             r.method,
-            thousands(r.mesh.nodes as u64),
-            thousands(r.mesh.tets as u64),
+            counted(r.mesh.nodes as u64, "node"),
+            counted(r.mesh.tets as u64, "tet"),
             mesh.name
         ),
     ));
     let t = &r.timing;
     match r.static_solve {
         Some(s) => {
-            let outcome = match s.met {
-                Some("force") => format!(
-                    "converged (out-of-balance force {:.1e} of the load)",
-                    s.residual
-                ),
-                Some(_) => format!(
-                    "converged (update {:.1e} of the displacement, CG solved to {:.1e}; \
-                     out-of-balance force {:.1e} of the load)",
-                    s.update, s.cg_residual, s.residual
-                ),
-                None => "NOT converged".to_owned(),
+            let outcome = if s.converged {
+                format!(
+                    "converged: out-of-balance force {:.1e} of the load (newton_tolerance {:.0e})",
+                    s.force, s.tolerance
+                )
+            } else if s.met.is_some() {
+                format!(
+                    "the shape converged (last update {:.1e} of the displacement); the \
+                     out-of-balance force stays at {:.1e} of the load, f32's round-off floor, \
+                     above newton_tolerance {:.0e}",
+                    s.update, s.force, s.tolerance
+                )
+            } else {
+                format!(
+                    "NOT converged: out-of-balance force {:.1e} of the load (newton_tolerance {:.0e})",
+                    s.force, s.tolerance
+                )
             };
             lines.push((
                 "static",
@@ -790,6 +933,15 @@ fn summary(
         text.push_str(&format!("{label:<10} {value}"));
     }
     text
+}
+
+/// `1 tet`, `1,331 tets`: a count with its noun.
+fn counted(n: u64, noun: &str) -> String {
+    if n == 1 {
+        format!("1 {noun}")
+    } else {
+        format!("{} {noun}s", thousands(n))
+    }
 }
 
 /// `1,331`: a count with thousands separators.

@@ -338,6 +338,118 @@ pub struct StaticSpec {
     pub settings: StaticSettings,
 }
 
+/// One key of the scene file, for `corofem run --help`: the table it is in,
+/// its name, its default (from the constants the parser uses) and what it
+/// sets. A test checks that the keys are exactly the parser's fields.
+#[derive(Debug, Clone, PartialEq)]
+pub struct KeyDoc {
+    /// `[mesh]`, `[[probe]]`, `[world] ground`, ...
+    pub table: &'static str,
+    /// The key.
+    pub key: &'static str,
+    /// The default as written in a scene file, or `required`, `none`.
+    pub default: String,
+    /// What it sets, with its unit.
+    pub what: &'static str,
+}
+
+/// Default `[mesh] tets_per_cell`.
+pub const DEFAULT_TETS_PER_CELL: i64 = 6;
+
+/// Every key of the scene file with its default, in the parser's order.
+pub fn keys() -> Vec<KeyDoc> {
+    let m = Material::DEFAULT;
+    let d = Settings::default();
+    let mass = Settings::with_preconditioner(Preconditioner::Mass);
+    let st = StaticSettings::default();
+    // An f32 default as written in decimal (0.3, not 0.30000001192092896).
+    let v = |x: f32| format!("{:?}", x.to_string().parse::<f64>().unwrap_or(0.0));
+    let g = d.gravity;
+    #[rustfmt::skip]
+    let rows: [(&'static str, &'static str, String, &'static str); 56] = [
+        ("[mesh]", "file", "required, or generator".into(), "mesh file: .tetmesh, Gmsh .msh (v2, v4), .vtk, .vtu"),
+        ("[mesh]", "generator", "none".into(), "\"box\": a box split into tetrahedra, instead of file"),
+        ("[mesh]", "size", "required with generator".into(), "[x, y, z]: the box's size (m)"),
+        ("[mesh]", "cells", "required with generator".into(), "[nx, ny, nz]: cells along each axis"),
+        ("[mesh]", "tets_per_cell", DEFAULT_TETS_PER_CELL.to_string(), "5 or 6 tetrahedra per cell"),
+        ("[mesh]", "scale", "1.0".into(), "factor on the file's coordinates (0.01: cm to m)"),
+        ("[mesh]", "reorient", "false".into(), "swap nodes of negatively oriented tets instead of refusing them"),
+        ("[material]", "young", v(m.young), "Young's modulus (Pa); 0: no elastic force"),
+        ("[material]", "poisson", v(m.poisson), "Poisson ratio, 0 <= nu < 0.5"),
+        ("[material]", "density", v(m.density), "kg/m^3"),
+        ("[solver]", "method", format!("{:?}", d.method.name()), "\"qr-invertible\", \"qr\", \"polar\", \"linear\", \"qr-rest-b\""),
+        ("[solver]", "dt", v(d.dt), "time step (s)"),
+        ("[solver]", "steps", "required, unless static".into(), "time steps to run (at most 1e9)"),
+        ("[solver]", "cg_iterations", format!( "{} ({} with \"mass\", {} static)", d.cg_iterations, mass.cg_iterations, st.cg_iterations ), "CG iterations per step"),
+        ("[solver]", "cg_tolerance", format!("{} ({} static)", v(d.cg_tolerance), v(st.cg_tolerance)), "relative residual at which CG stops early; 0: never"),
+        ("[solver]", "rayleigh_mass", v(d.rayleigh_mass), "damping C = rayleigh_mass M + rayleigh_stiffness K (1/s)"),
+        ("[solver]", "rayleigh_stiffness", v(d.rayleigh_stiffness), "stiffness damping (s)"),
+        ("[solver]", "static", "false".into(), "true: solve for static equilibrium instead of stepping"),
+        ("[solver]", "warm_start", format!("{} ({} with \"mass\")", d.warm_start, mass.warm_start), "start CG from the last step's solution"),
+        ("[solver]", "energy_guard", d.energy_guard.to_string(), "take out energy that inverted elements made"),
+        ("[solver]", "preconditioner", format!("{:?}", d.preconditioner.name()), "\"two-level\", \"block-jacobi\" or \"mass\" (the paper's CG)"),
+        ("[solver]", "newton_iterations", st.max_iterations.to_string(), "static: most Newton iterations"),
+        ("[solver]", "newton_tolerance", v(st.tolerance), "static: out-of-balance force / load that counts as converged"),
+        ("[world]", "gravity", format!("[{}, {}, {}]", v(g[0]), v(g[1]), v(g[2])), "m/s^2"),
+        ("[world]", "ground", "none".into(), "{ normal = [x, y, z], offset, friction, static_friction }: the plane n.x >= offset"),
+        ("[world] ground", "normal", "required".into(), "the plane's normal (any length but 0)"),
+        ("[world] ground", "offset", "0.0".into(), "n.x >= offset, with n normalised (m)"),
+        ("[world] ground", "friction", "0.0".into(), "Coulomb coefficient (kinetic)"),
+        ("[world] ground", "static_friction", "friction".into(), "static coefficient, at least friction"),
+        ("[[fixed]]", "box", "none; box or nodes".into(), "{ min = [x, y, z], max = [x, y, z] }: nodes inside are held (m)"),
+        ("[[fixed]]", "nodes", "none; box or nodes".into(), "[i, ...]: node indices (0-based) held"),
+        ("[[fixed]] box", "min", "required".into(), "smallest corner (m)"),
+        ("[[fixed]] box", "max", "required".into(), "largest corner (m)"),
+        ("[[force]]", "box", "none; box or nodes".into(), "the nodes the force is spread over"),
+        ("[[force]]", "nodes", "none; box or nodes".into(), "node indices (0-based)"),
+        ("[[force]]", "total", "required".into(), "[fx, fy, fz]: the total force, spread evenly (N)"),
+        ("[initial]", "velocity", "[0.0, 0.0, 0.0]".into(), "m/s"),
+        ("[initial]", "angular_velocity", "[0.0, 0.0, 0.0]".into(), "rad/s, about the mass centroid"),
+        ("[[material_change]]", "step", "required".into(), "after this many steps, before the next one"),
+        ("[[material_change]]", "young", "required".into(), "the new Young's modulus (Pa)"),
+        ("[tool]", "box", "none; box or nodes".into(), "the grabbed nodes"),
+        ("[tool]", "nodes", "none; box or nodes".into(), "grabbed node indices (0-based)"),
+        ("[tool]", "stiffness", "required".into(), "the spring's total stiffness (N/m)"),
+        ("[tool]", "path", "[[0.0, 0.0, 0.0, 0.0]]".into(), "[[t, dx, dy, dz], ...]: target offset over time (s, m)"),
+        ("[tool]", "release", "never".into(), "time at which the tool lets go (s)"),
+        ("[[probe]]", "shape", "\"sphere\"".into(), "\"sphere\" or \"capsule\""),
+        ("[[probe]]", "radius", "required".into(), "m"),
+        ("[[probe]]", "half_length", "required for a capsule".into(), "half the capsule's axis segment (m)"),
+        ("[[probe]]", "axis", "[0.0, 0.0, 1.0]".into(), "capsule only: the axis' direction"),
+        ("[[probe]]", "position", "required".into(), "the centre at t = 0 (m)"),
+        ("[[probe]]", "path", "[[0.0, 0.0, 0.0, 0.0]]".into(), "[[t, dx, dy, dz], ...]: offset from position over time"),
+        ("[[probe]]", "friction", "0.0".into(), "Coulomb coefficient (kinetic)"),
+        ("[[probe]]", "static_friction", "friction".into(), "static coefficient, at least friction"),
+        ("[visual]", "file", "required".into(), "a triangle surface (.obj, .stl) carried by the tetrahedra"),
+        ("[visual]", "reach", "half the mean edge".into(), "how far outside the tetrahedra a vertex may lie (m)"),
+        ("[output]", "every", DEFAULT_EVERY.to_string(), "record the history every n steps"),
+    ];
+    rows.into_iter()
+        .map(|(table, key, default, what)| KeyDoc {
+            table,
+            key,
+            default,
+            what,
+        })
+        .collect()
+}
+
+/// The key list of `corofem run --help`: one line per key, grouped by
+/// table.
+pub fn keys_help() -> String {
+    let mut out = String::new();
+    let mut table = "";
+    for k in keys() {
+        if k.table != table {
+            table = k.table;
+            out.push_str(&format!("{table}\n"));
+        }
+        let left = format!("  {} = {}", k.key, k.default);
+        out.push_str(&format!("{left:<44} {}\n", k.what));
+    }
+    out
+}
+
 /// Default `[output] every`.
 pub const DEFAULT_EVERY: u64 = 10;
 /// Most time steps of one run (1e9: 14 hours at 50 µs a step; the run keeps
@@ -387,6 +499,31 @@ fn toml_error(file: &str, text: &str, e: &toml::de::Error) -> CliError {
     } else {
         enclosing_section(&text[..line_start])
     };
+    if let Some(field) = message.strip_prefix("missing field ") {
+        // A required key left out: name the table it belongs to (the
+        // parser reports it at the table's header, or at an inline
+        // table's key), numbered as the other messages number entries.
+        let head = line_text.split('#').next().unwrap_or("").trim();
+        let table = if header {
+            if head.starts_with("[[") {
+                let n = text[..line_start]
+                    .lines()
+                    .filter(|l| l.split('#').next().unwrap_or("").trim() == head)
+                    .count();
+                format!("{head} #{}", n + 1)
+            } else {
+                head.to_owned()
+            }
+        } else {
+            let key = head.split('=').next().unwrap_or("").trim();
+            let outer = enclosing_section(&text[..line_start]).unwrap_or_default();
+            format!("{outer} {key}").trim().to_owned()
+        };
+        return CliError(format!(
+            "{file}:{line}:{col}: {table}: missing key {field}, which has no default \
+             (corofem run --help lists every key)\n  {line} | {line_text}"
+        ));
+    }
     // serde calls a table a field; on a header line it is a table.
     let message = if header {
         message.replacen("unknown field", "unknown table", 1)
@@ -451,6 +588,23 @@ impl Display for Ints<'_> {
     }
 }
 
+/// The largest magnitude an f32 holds, as messages print it.
+pub const F32_MAX_SHOWN: &str = "3.4e38";
+
+/// `expected`, completed for a value too large for f32 (the solver's
+/// number type): `young >= 0 (Pa) within f32's range (at most 3.4e38 in
+/// magnitude)`.
+fn beyond_f32(expected: &str) -> String {
+    format!("{expected} within f32's range (at most {F32_MAX_SHOWN} in magnitude; the solver computes in f32)")
+}
+
+/// `expected`, completed for a value > 0 that f32 rounds to 0.
+fn below_f32(expected: &str) -> String {
+    format!(
+        "{expected} that f32 does not round to 0 (at least 1.2e-38; the solver computes in f32)"
+    )
+}
+
 /// Validation context: the file name for messages.
 struct Ctx<'a> {
     file: &'a str,
@@ -508,7 +662,8 @@ impl Ctx<'_> {
         CliError(format!("{}: {section}: {message}", self.file))
     }
 
-    /// A finite f64 that also fits f32, within `ok`.
+    /// A finite f64 that also fits f32, within `ok`. A value beyond f32's
+    /// range (`young = 1e300`) is named as such, not as out of `ok`'s range.
     fn real(
         &self,
         section: &str,
@@ -518,7 +673,10 @@ impl Ctx<'_> {
         expected: &str,
     ) -> CliResult<f32> {
         let narrow = value as f32;
-        if value.is_finite() && narrow.is_finite() && ok(value) {
+        if value.is_finite() && !narrow.is_finite() {
+            return Err(self.bad(section, key, Num(value), beyond_f32(expected)));
+        }
+        if value.is_finite() && ok(value) {
             Ok(narrow)
         } else {
             Err(self.bad(section, key, Num(value), expected))
@@ -530,6 +688,8 @@ impl Ctx<'_> {
         let out = v.map(|x| x as f32);
         if out.iter().all(|x| x.is_finite()) {
             Ok(out)
+        } else if v.iter().all(|x| x.is_finite()) {
+            Err(self.bad(section, key, List(&v), beyond_f32("three numbers")))
         } else {
             Err(self.bad(section, key, List(&v), "three finite numbers"))
         }
@@ -740,11 +900,15 @@ impl Ctx<'_> {
                 let cells = m.cells.ok_or_else(|| {
                     self.bad_table(S, "`generator = \"box\"` needs `cells = [nx, ny, nz]`")
                 })?;
-                if !size
-                    .iter()
-                    .all(|&s| s.is_finite() && s > 0.0 && (s as f32).is_finite())
-                {
-                    return Err(self.bad(S, "size", List(&size), "three lengths > 0 (m)"));
+                const SIZE: &str = "three lengths > 0 (m)";
+                if !size.iter().all(|&s| s.is_finite() && s > 0.0) {
+                    return Err(self.bad(S, "size", List(&size), SIZE));
+                }
+                if !size.iter().all(|&s| (s as f32).is_finite()) {
+                    return Err(self.bad(S, "size", List(&size), beyond_f32(SIZE)));
+                }
+                if !size.iter().all(|&s| s as f32 > 0.0) {
+                    return Err(self.bad(S, "size", List(&size), below_f32(SIZE)));
                 }
                 if !cells.iter().all(|&c| c >= 1) {
                     return Err(self.bad(S, "cells", Ints(&cells), "three whole numbers >= 1"));
@@ -759,7 +923,7 @@ impl Ctx<'_> {
                         format!("at most {MAX_NODES} nodes in all ((nx+1)(ny+1)(nz+1) = {nodes})"),
                     ));
                 }
-                let tets_per_cell = m.tets_per_cell.unwrap_or(6);
+                let tets_per_cell = m.tets_per_cell.unwrap_or(DEFAULT_TETS_PER_CELL);
                 if tets_per_cell != 5 && tets_per_cell != 6 {
                     return Err(self.bad(S, "tets_per_cell", tets_per_cell, "5 or 6"));
                 }
@@ -846,7 +1010,7 @@ impl Ctx<'_> {
             s.dt.unwrap_or_else(|| d.dt.to_string().parse().unwrap_or(f64::from(d.dt)));
         let dt_f32 = self.real(S, "dt", dt, |x| x > 0.0, "a time step > 0 (s)")?;
         if dt_f32 <= 0.0 {
-            return Err(self.bad(S, "dt", Num(dt), "a time step > 0 (s)"));
+            return Err(self.bad(S, "dt", Num(dt), below_f32("a time step > 0 (s)")));
         }
         let is_static = s.static_solve.unwrap_or(false);
         let steps = match (s.steps, is_static) {
@@ -1181,6 +1345,108 @@ mod tests {
         parse(&format!("{BOX}{extra}"), "t.toml", Path::new("/scenes"))
     }
 
+    /// The field names serde's derive gives `T` (renames applied): the
+    /// keys the parser accepts. A deserializer that only records what
+    /// `deserialize_struct` is asked for.
+    fn fields<T: for<'de> Deserialize<'de>>() -> &'static [&'static str] {
+        use serde::de::{self, Visitor};
+        struct Capture<'a>(&'a mut &'static [&'static str]);
+        impl<'de> de::Deserializer<'de> for Capture<'_> {
+            type Error = de::value::Error;
+            fn deserialize_any<V: Visitor<'de>>(self, _: V) -> Result<V::Value, Self::Error> {
+                Err(de::Error::custom("not a struct"))
+            }
+            fn deserialize_struct<V: Visitor<'de>>(
+                self,
+                _: &'static str,
+                fields: &'static [&'static str],
+                _: V,
+            ) -> Result<V::Value, Self::Error> {
+                *self.0 = fields;
+                Err(de::Error::custom("captured"))
+            }
+            serde::forward_to_deserialize_any! {
+                bool i8 i16 i32 i64 i128 u8 u16 u32 u64 u128 f32 f64 char str string
+                bytes byte_buf option unit unit_struct newtype_struct seq tuple
+                tuple_struct map enum identifier ignored_any
+            }
+        }
+        let mut out: &'static [&'static str] = &[];
+        let _ = T::deserialize(Capture(&mut out));
+        out
+    }
+
+    #[test]
+    fn the_help_lists_exactly_the_parsers_keys() {
+        let tables: [(&str, &[&str]); 15] = [
+            ("[mesh]", fields::<RawMesh>()),
+            ("[material]", fields::<RawMaterial>()),
+            ("[solver]", fields::<RawSolver>()),
+            ("[world]", fields::<RawWorld>()),
+            ("[world] ground", fields::<RawPlane>()),
+            ("[[fixed]]", fields::<RawSelection>()),
+            ("[[fixed]] box", fields::<RawBox>()),
+            ("[[force]]", fields::<RawForce>()),
+            ("[initial]", fields::<RawInitial>()),
+            ("[[material_change]]", fields::<RawMaterialChange>()),
+            ("[tool]", fields::<RawTool>()),
+            ("[[probe]]", fields::<RawProbe>()),
+            ("[visual]", fields::<RawVisual>()),
+            ("[output]", fields::<RawOutput>()),
+            ("(top level)", fields::<RawScene>()),
+        ];
+        let docs = keys();
+        for (table, parsed) in tables {
+            assert!(!parsed.is_empty(), "{table}: no fields captured");
+            if table == "(top level)" {
+                // Every top-level key is a table the help has a heading for.
+                for f in parsed {
+                    assert!(
+                        docs.iter().any(|k| k.table.trim_matches(['[', ']']) == *f),
+                        "table [{f}] has no keys in the help"
+                    );
+                }
+                continue;
+            }
+            let listed: Vec<&str> = docs
+                .iter()
+                .filter(|k| k.table == table)
+                .map(|k| k.key)
+                .collect();
+            assert_eq!(
+                listed, parsed,
+                "{table}: the help's keys against the parser's"
+            );
+        }
+        // A key in a table the parser does not have would be listed too.
+        let known: Vec<&str> = tables.iter().map(|t| t.0).collect();
+        for k in &docs {
+            assert!(
+                known.contains(&k.table),
+                "{}: not a table of the parser",
+                k.table
+            );
+        }
+        // The defaults are those the parser applies.
+        let help = keys_help();
+        let s = parse_str("[solver]\nsteps = 1\n").unwrap();
+        for (key, value) in [
+            ("young", format!("{:?}", f64::from(s.material.young))),
+            ("dt", format!("{:?}", s.dt)),
+            ("every", s.every.to_string()),
+            ("poisson", "0.3".to_owned()),
+            ("gravity", "[0.0, 0.0, -9.81]".to_owned()),
+            ("newton_tolerance", "1e-5".to_owned()),
+            ("cg_iterations", s.settings.cg_iterations.to_string()),
+        ] {
+            assert!(
+                help.lines()
+                    .any(|l| l.trim_start().starts_with(&format!("{key} = {value}"))),
+                "{key} = {value} not in:\n{help}"
+            );
+        }
+    }
+
     #[test]
     fn ground_friction_keys() {
         let plane = "[solver]\nsteps = 1\n[world]\nground = { normal = [0, 0, 1], offset = 0.0";
@@ -1238,12 +1504,15 @@ mod tests {
     }
 
     #[test]
-    fn unknown_table_is_named_at_the_top_level() {
+    fn a_missing_key_is_named_with_its_table_not_the_one_above() {
         let e = parse_str("[solver]\nsteps = 3\n[[probe]]\nradius = 0.01\n")
             .unwrap_err()
             .0;
-        assert!(e.contains("probe"), "{e}");
-        assert!(e.contains(": (top level) "), "{e}");
+        assert!(
+            e.starts_with("t.toml:7:1: [[probe]] #1: missing key `position`, which has no default"),
+            "{e}"
+        );
+        assert!(!e.contains("(top level)"), "{e}");
         assert!(!e.contains("[solver]"), "{e}");
     }
 

@@ -6,7 +6,7 @@
 
 use std::fs;
 
-mod common;
+use crate::common;
 use common::{corofem, TempDir};
 
 /// Runs `args` in `dir` and asserts a clean failure: exit status 1 (not a

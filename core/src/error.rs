@@ -184,7 +184,11 @@ impl fmt::Display for Error {
                 write!(f, "tetrahedron {element} lists node {node} twice")
             }
             Error::DegenerateElement { element } => {
-                write!(f, "tetrahedron {element} has zero rest volume")
+                write!(
+                    f,
+                    "tetrahedron {element} is degenerate: zero rest volume (flat, or two nodes \
+                     at one place), or a volume, mass or stiffness beyond f32's range"
+                )
             }
             Error::InvertedElement { element } => write!(
                 f,
@@ -435,7 +439,8 @@ impl fmt::Display for StepError {
             StepError::ProbeInsideBody { probe, node } => {
                 write!(
                     f,
-                    "probe {probe} starts inside the body (node {node} is inside it)"
+                    "the probe at index {probe} of the slice starts inside the body \
+                     (boundary node {node} is inside it)"
                 )
             }
         }

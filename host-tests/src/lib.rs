@@ -8,6 +8,15 @@ use corofem::{BoxMesh, BuildOptions, Material, Scene, Storage, VecScene};
 
 pub mod reliability;
 
+/// A progress line for a test that runs for many seconds: written to the
+/// terminal's stderr directly, so it shows while the test harness captures
+/// the test's own output (`cargo test` shows nothing else until the test
+/// ends). `what` says what the test is doing, `test` which test it is.
+pub fn progress(test: &str, what: std::fmt::Arguments<'_>) {
+    use std::io::Write as _;
+    let _ = writeln!(std::io::stderr().lock(), "    {test}: {what}");
+}
+
 /// A mesh in the core's input form.
 #[derive(Clone, Debug)]
 pub struct CoreMesh {
@@ -218,3 +227,9 @@ pub fn smooth_surface(mesh: &CoreMesh, levels: u32) -> corofem_io::Surface {
     }
     s
 }
+
+/// The code examples of docs/library.md (the library beyond the README's
+/// first example), compiled and run as doctests.
+#[cfg(doctest)]
+#[doc = include_str!("../../docs/library.md")]
+pub struct LibraryGuide;

@@ -9,7 +9,7 @@
 //! device, `Σ F·Δx` over the periods, is never positive (the environment
 //! cannot give back more energy than the device put in).
 //!
-//! `cargo test --release -p corofem-host-tests --test coupling -- --nocapture`
+//! `cargo test --release -p corofem-host-tests --test host coupling:: -- --nocapture`
 //! prints the figures.
 
 use corofem::{Coupling, Error, Material, Parameter, Probe, Settings, VecScene};
@@ -89,6 +89,10 @@ type Path = dyn Fn(f32) -> ([f32; 3], [f32; 3]);
 /// the path (its position and velocity at a time, s) and `cycle` is the
 /// path's period in steps.
 fn run(mode: Loop, steps: usize, hand: Option<[f32; 3]>, path: Option<(&Path, usize)>) -> Run {
+    corofem_host_tests::progress(
+        "coupling",
+        format_args!("{steps} steps of a device on the block"),
+    );
     let mut scene = block();
     let mut probes = [Probe::sphere(RADIUS, START).unwrap()];
     let (mut x, mut v) = (START, [0.0f32; 3]);

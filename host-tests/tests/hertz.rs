@@ -113,7 +113,17 @@ fn indent(b: &Block, depths: &[f64]) -> Vec<Rest> {
     let mut probes = [Probe::sphere(RADIUS, [cx, cy, (top + 1e-4) as f32]).expect("probe")];
     let mut from = -1e-4;
     let mut rests = Vec::new();
-    for &depth in depths {
+    for (i, &depth) in depths.iter().enumerate() {
+        corofem_host_tests::progress(
+            "hertz",
+            format_args!(
+                "pressing the sphere {} mm into the block of {} tets ({} of {})",
+                depth * 1e3,
+                scene.element_count(),
+                i + 1,
+                depths.len()
+            ),
+        );
         let (press, hold) = (100, 300);
         let mut history = Vec::new();
         for k in 1..=press + hold {
@@ -215,7 +225,7 @@ fn a_sphere_indents_a_block_as_hertz_predicts() {
 
 /// The agreement against the spacing at the contact, and the block's size
 /// effect. Minutes in release: run with
-/// `cargo test --release -p corofem-host-tests --test hertz -- --ignored --nocapture`.
+/// `cargo test --release -p corofem-host-tests --test host hertz:: -- --ignored --nocapture`.
 #[test]
 #[ignore = "a mesh study of minutes; run with --ignored --release"]
 fn hertz_agreement_against_mesh_size() {
@@ -252,6 +262,10 @@ fn hertz_agreement_against_mesh_size() {
 /// swings by the whole of its value.)
 #[test]
 fn a_long_solve_holds_a_resting_contact_steady() {
+    corofem_host_tests::progress(
+        "hertz",
+        format_args!("a long solve holding a resting contact (the slowest host test)"),
+    );
     let b = Block {
         w: 0.08,
         t: 0.04,

@@ -10,6 +10,10 @@ use corofem_host_tests::reliability::{self, Body, Case, RECOVERED};
 /// refused step, energy bounded by the tool's work, back within 1%.
 fn sweep(body: &Body, method: Method, cases: &[Case]) {
     for &case in cases {
+        corofem_host_tests::progress(
+            "reliability",
+            format_args!("{} {method:?} {case:?}", body.name),
+        );
         let o = reliability::run_case(body, case, method, 200_000);
         eprintln!(
             "{} {method:?} {case:?}: {} steps, {:.0}% inverted, energy {:.2}× the work, recovery {:.1e} in {:.2} s",
@@ -126,6 +130,10 @@ fn soft_liver_recovers_with_qr_invertible() {
 /// with `method`, checked for what every method must do: no refused step,
 /// everything finite.
 fn short_soak(method: Method) -> reliability::Soak {
+    corofem_host_tests::progress(
+        "reliability",
+        format_args!("{method:?}: a 20,000-step soak of the liver"),
+    );
     let liver = reliability::liver();
     let s = reliability::soak(&liver, method, 20_000, 10_000, 2005);
     eprintln!("{method:?}: {s:?}");

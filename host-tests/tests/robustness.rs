@@ -150,6 +150,10 @@ struct Crushed {
 /// on the ground by gravity, then stiffened to 1 MPa over 0.5 s and left to
 /// settle for 3 s.
 fn crush_and_stiffen(method: Method) -> Crushed {
+    corofem_host_tests::progress(
+        "robustness",
+        format_args!("{method:?}: crushing the bunny, then 3,500 steps of stiffening"),
+    );
     let mesh = shared_mesh("bunny_ftw_1k.tetmesh");
     let zmin = mesh.nodes.iter().map(|p| p[2]).fold(f32::MAX, f32::min);
     let mut scene = mesh.scene(&Material {

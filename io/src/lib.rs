@@ -68,7 +68,9 @@ pub use heap::to_core;
 pub use mesh::{drop_unused_nodes, Mesh};
 #[cfg(feature = "vtk")]
 pub use series::{VtkSeries, PVD_NAME, SURFACE_PVD_NAME};
-pub use stats::{dihedral_angles_deg, mesh_stats, tet_volume, MeshStats, ZERO_VOLUME_RTOL};
+pub use stats::{
+    dihedral_angles_deg, mesh_stats, tet_volume, unusable, MeshStats, Unusable, ZERO_VOLUME_RTOL,
+};
 #[cfg(feature = "surface")]
 pub use surface::{parse_surface, read_surface, SurfaceFormat};
 pub use tetmesh::{format_tetmesh, parse_tetmesh, write_tetmesh};

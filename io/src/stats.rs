@@ -129,14 +129,7 @@ pub fn mesh_stats(mesh: &Mesh) -> MeshStats {
         s.min_tet_volume = s.min_tet_volume.min(v);
         s.max_tet_volume = s.max_tet_volume.max(v);
 
-        let longest = [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)]
-            .iter()
-            .map(|&(i, j)| {
-                let e = sub(p[i], p[j]);
-                dot(e, e)
-            })
-            .fold(0.0, f64::max)
-            .sqrt();
+        let longest = longest_edge(&p);
         if v.abs() <= ZERO_VOLUME_RTOL * longest.powi(3) {
             s.zero_volume_tets += 1;
         } else if v < 0.0 {
@@ -149,4 +142,93 @@ pub fn mesh_stats(mesh: &Mesh) -> MeshStats {
         }
     }
     s
+}
+
+/// Why the solver, which computes in f32, cannot use a mesh, from
+/// [`unusable`]. `corofem info` and `corofem run` apply the same test.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Unusable {
+    /// A node's coordinate, multiplied by the scale, is beyond f32's range
+    /// (its magnitude exceeds `f32::MAX`, about 3.4e38) or not finite.
+    Coordinate {
+        /// The node, 0-based in the file's order.
+        node: usize,
+        /// 0, 1, 2 for x, y, z.
+        axis: usize,
+        /// The coordinate as read (before scaling).
+        value: f64,
+    },
+    /// A tetrahedron is flat: `|V| <= ZERO_VOLUME_RTOL * L³` (with `L` its
+    /// longest edge), which f32 cannot solve with.
+    Flat {
+        /// The tetrahedron, 0-based in the file's order.
+        tet: usize,
+        /// Its signed volume (file units cubed).
+        volume: f64,
+        /// Its longest edge (file units).
+        longest_edge: f64,
+    },
+}
+
+impl core::fmt::Display for Unusable {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match *self {
+            Unusable::Coordinate { node, axis, value } => write!(
+                f,
+                "node {node} has {} = {value:e}, beyond f32's range (at most 3.4e38 in \
+                 magnitude after [mesh] scale; the solver computes in f32)",
+                ["x", "y", "z"][axis]
+            ),
+            Unusable::Flat {
+                tet,
+                volume,
+                longest_edge,
+            } => write!(
+                f,
+                "tetrahedron {tet} is flat: its volume {volume:.3e} is {:.1e} of its longest \
+                 edge ({longest_edge:.3e}) cubed, and the solver needs more than \
+                 {ZERO_VOLUME_RTOL:e} (a regular tetrahedron has 0.118)",
+                volume.abs() / longest_edge.powi(3)
+            ),
+        }
+    }
+}
+
+/// The first reason the solver cannot use `mesh` with its coordinates
+/// multiplied by `scale`: a coordinate beyond f32's range, then a flat
+/// tetrahedron (the same test as [`MeshStats::zero_volume_tets`]). `None`
+/// when neither applies.
+pub fn unusable(mesh: &Mesh, scale: f64) -> Option<Unusable> {
+    for (node, p) in mesh.nodes.iter().enumerate() {
+        for (axis, &value) in p.iter().enumerate() {
+            if !((value * scale) as f32).is_finite() {
+                return Some(Unusable::Coordinate { node, axis, value });
+            }
+        }
+    }
+    for (tet, t) in mesh.tets.iter().enumerate() {
+        let p = t.map(|i| mesh.nodes.get(i).copied().unwrap_or([0.0; 3]));
+        let volume = tet_volume(&p);
+        let longest_edge = longest_edge(&p);
+        if volume.abs() <= ZERO_VOLUME_RTOL * longest_edge.powi(3) {
+            return Some(Unusable::Flat {
+                tet,
+                volume,
+                longest_edge,
+            });
+        }
+    }
+    None
+}
+
+/// The longest of the six edges of `p`.
+fn longest_edge(p: &[[f64; 3]; 4]) -> f64 {
+    [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)]
+        .iter()
+        .map(|&(i, j)| {
+            let e = sub(p[i], p[j]);
+            dot(e, e)
+        })
+        .fold(0.0, f64::max)
+        .sqrt()
 }

@@ -65,7 +65,19 @@ fn parse(bytes: &[u8], name: &str, flavour: Flavour) -> Result<Mesh, MeshError> 
         Flavour::Xml => Vtk::parse_xml(BufReader::new(bytes)),
     })
     .ok_or_else(|| parse_error("the vtkio parser failed (panicked) on this file".to_owned()))?
-    .map_err(|e| parse_error(format!("vtkio could not parse the file: {e}")))?;
+    .map_err(|e| {
+        let e = e.to_string();
+        // nom's `Complete`: the parser needed more input than the file has.
+        if e.contains("Complete") || e.contains("Incomplete") {
+            parse_error(
+                "the file ends early: it stops before the points, cells or cell types its \
+                 header lines announce (a truncated or partly written file?)"
+                    .to_owned(),
+            )
+        } else {
+            parse_error(format!("vtkio could not parse the file: {e}"))
+        }
+    })?;
 
     let pieces = match vtk.data {
         DataSet::UnstructuredGrid { pieces, .. } => pieces,

@@ -8,7 +8,7 @@
 // Reads binary MSH 4.1 among them: needs the feature that reads them.
 #![cfg(feature = "gmsh-binary")]
 
-mod common;
+use crate::common;
 
 use common::msh::{to_msh2, to_msh41_ascii, to_msh41_binary};
 use common::{assert_same_mesh, message, shared_meshes, shared_tetmesh, two_tets, TempDir};

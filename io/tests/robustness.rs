@@ -9,7 +9,7 @@
 // Reads VTK and binary MSH among them: needs the feature that reads them.
 #![cfg(all(feature = "vtk", feature = "gmsh-binary"))]
 
-mod common;
+use crate::common;
 
 use std::panic::{catch_unwind, AssertUnwindSafe};
 

@@ -1,6 +1,6 @@
 //! `mesh_stats`, the geometric helpers and `drop_unused_nodes`.
 
-mod common;
+use crate::common;
 
 use common::{shared_tetmesh, two_tets};
 use corofem_io::{dihedral_angles_deg, drop_unused_nodes, mesh_stats, tet_volume, Mesh};

@@ -1,6 +1,6 @@
 //! `.tetmesh` reading, writing and error reporting, plus `read_mesh` dispatch errors.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 

@@ -4,7 +4,7 @@
 // Reads VTK files: needs the feature that reads them.
 #![cfg(feature = "vtk")]
 
-mod common;
+use crate::common;
 
 use common::{assert_same_mesh, message, shared_tetmesh, two_tets, TempDir};
 use corofem_io::{

@@ -622,6 +622,8 @@ test('without WebGL 2 the page draws with Canvas 2D: the embedded surface and th
   await pg.goto(`${URL}?renderer=2d`);
   await pg.waitForFunction(() => window.demo?.ready === true, null, { timeout: 20000 });
   assert.equal(await pg.evaluate(() => demo.renderer), '2d');
+  // Asked for by the address, Canvas 2D needs no notice.
+  assert.equal(await pg.isHidden('#notice'), true);
   await pg.selectOption('#body', '2');
   await pg.check('#show-edges');
   const l = await look(pg);
@@ -630,4 +632,70 @@ test('without WebGL 2 the page draws with Canvas 2D: the embedded surface and th
   assert.ok(l.pixels > 20000 && l.bright > 1000, JSON.stringify(l));
   await pg.close();
   assert.deepEqual(pageErrors, []);
+});
+
+// A page whose module cannot load says why, over the view, instead of
+// leaving the canvas empty.
+async function brokenModule(fulfil) {
+  const pg = await browser.newPage({ viewport: { width: 1280, height: 760 } });
+  const errors = [];
+  pg.on('pageerror', (e) => errors.push(e.message));
+  await pg.route('**/corofem_web.wasm', (route) => route.fulfill(fulfil));
+  await pg.goto(URL);
+  await pg.waitForSelector('#notice:not([hidden])', { timeout: 20000 });
+  const shown = await pg.evaluate(() => ({
+    text: document.getElementById('notice').textContent,
+    kind: document.getElementById('notice').className,
+    demo: window.demo,
+  }));
+  await pg.close();
+  return { ...shown, errors };
+}
+
+test('a missing module is explained on the page', async () => {
+  const s = await brokenModule({ status: 404, contentType: 'text/plain', body: 'not found' });
+  assert.equal(s.kind, 'error');
+  assert.match(s.text, /The simulation module is missing/);
+  assert.match(s.text, /corofem_web\.wasm: HTTP 404/);
+  assert.match(s.text, /bash examples\/web\/build\.sh/);
+  assert.deepEqual(s.demo, { ready: false, failed: 'The simulation module is missing' });
+  // The page stops there, with one error naming why.
+  assert.deepEqual(s.errors, ['corofem web demo: The simulation module is missing']);
+});
+
+test('an invalid module is explained on the page', async () => {
+  const s = await brokenModule({ status: 200, contentType: 'application/wasm', body: 'not wasm at all' });
+  assert.equal(s.kind, 'error');
+  assert.match(s.text, /The simulation module is not valid WebAssembly/);
+  assert.match(s.text, /corofem_web\.wasm \(15 bytes\) did not compile/);
+  assert.equal(s.demo.ready, false);
+});
+
+test('without WebGL 2 the page says it draws with Canvas 2D, and does', async () => {
+  const pg = await browser.newPage({ viewport: { width: 1280, height: 760 } });
+  const errors = [];
+  pg.on('pageerror', (e) => errors.push(e.message));
+  // A browser without WebGL 2: no context of that kind for any canvas.
+  await pg.addInitScript(() => {
+    const get = HTMLCanvasElement.prototype.getContext;
+    HTMLCanvasElement.prototype.getContext = function (kind, ...rest) {
+      return kind === 'webgl2' ? null : get.call(this, kind, ...rest);
+    };
+  });
+  await pg.goto(URL);
+  await pg.waitForFunction(() => window.demo?.ready === true, null, { timeout: 20000 });
+  assert.equal(await pg.evaluate(() => demo.renderer), '2d');
+  const n = await pg.evaluate(() => ({
+    hidden: document.getElementById('notice').hidden,
+    kind: document.getElementById('notice').className,
+    text: document.getElementById('notice').textContent,
+  }));
+  assert.equal(n.hidden, false);
+  assert.equal(n.kind, 'warn');
+  assert.match(n.text, /WebGL 2 is not available/);
+  assert.match(n.text, /draws with Canvas 2D instead/);
+  const l = await look(pg);
+  assert.ok(l.pixels > 20000, JSON.stringify(l));
+  await pg.close();
+  assert.deepEqual(errors, []);
 });

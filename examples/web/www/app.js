@@ -17,8 +17,60 @@ const ctx = canvas.getContext('2d');
 const query = new URLSearchParams(location.search);
 const gl = query.get('renderer') === '2d' ? null : createRenderer(query.get('antialias') ?? 'auto');
 
+// ---------------------------------------------------------------- notices
+// A message over the view: why the page cannot run (`kind` 'error'), or
+// what it runs without (`kind` 'warn'). `html` is the page's own text.
+function notice(kind, title, html) {
+  const n = $('notice');
+  n.className = kind;
+  n.innerHTML = `<h2>${title}</h2>${html}`;
+  n.hidden = false;
+}
+const BUILD = 'Build it with <code>bash examples/web/build.sh</code> and serve <code>www/</code> ' +
+  'over HTTP (<code>python3 -m http.server --directory examples/web/www</code>): see docs/web.md.';
+
+// Fetches and compiles the module, or says on the page why it cannot: the
+// file is missing (or the page was opened from disk), or it is not a valid
+// WebAssembly module. A server that sends another MIME type than
+// application/wasm still works (compiled from the bytes).
+async function loadModule(url) {
+  let response;
+  try {
+    response = await fetch(url);
+  } catch (e) {
+    const local = location.protocol === 'file:';
+    throw { title: 'The simulation module could not be fetched',
+      html: `<p><code>${url}</code> did not load (${e.message}).` +
+        (local ? ' The page was opened as a file: browsers only fetch it over HTTP.' : '') + `</p><p>${BUILD}</p>` };
+  }
+  if (!response.ok) {
+    throw { title: 'The simulation module is missing',
+      html: `<p><code>${url}</code>: HTTP ${response.status} ${response.statusText}.</p><p>${BUILD}</p>` };
+  }
+  const bytes = await response.arrayBuffer();
+  try {
+    return await WebAssembly.instantiate(bytes, {});
+  } catch (e) {
+    throw { title: 'The simulation module is not valid WebAssembly',
+      html: `<p><code>${url}</code> (${bytes.byteLength} bytes) did not compile: ${e.message}.</p>` +
+        `<p>A partly written or stale build: ${BUILD}</p>` };
+  }
+}
+
 // ---------------------------------------------------------------- module
-const { instance } = await WebAssembly.instantiateStreaming(fetch('corofem_web.wasm'), {});
+let instance;
+try {
+  ({ instance } = await loadModule('corofem_web.wasm'));
+} catch (e) {
+  notice('error', e.title ?? 'The demo cannot start', e.html ?? `<p>${e}</p>`);
+  window.demo = { ready: false, failed: e.title ?? String(e) };
+  throw new Error(`corofem web demo: ${e.title ?? e}`);
+}
+if (!gl && query.get('renderer') !== '2d') {
+  notice('warn', 'WebGL 2 is not available',
+    '<p>This browser gives no WebGL 2 context (turned off, or no GPU driver): the demo draws ' +
+    'with Canvas 2D instead, flat-shaded and slower on large meshes.</p>');
+}
 const x = instance.exports;
 const f32 = (ptr, n) => new Float32Array(x.memory.buffer, ptr, n);
 const u32 = (ptr, n) => new Uint32Array(x.memory.buffer, ptr, n);
