@@ -50,8 +50,8 @@ const FORGET: f32 = 0.99;
 ///   `m + h b + h² k`), so the proxy moves towards where the spring and
 ///   the body balance instead of past it.
 ///
-/// The README's "Haptic coupling" section gives how to choose `k`, `b`
-/// and `m` for a device, and what was measured.
+/// docs/library.md, "Haptic coupling", gives how to choose `k`, `b` and
+/// `m` for a device, and what was measured.
 ///
 /// Only positions are coupled: a capsule's axis is the caller's to set
 /// ([`Probe::move_to`] with the probe's new position), and no torque is

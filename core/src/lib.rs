@@ -200,8 +200,8 @@ pub use storage::{ArrayStorage, Node, NodeEntry, NodeWork, SliceStorage, Storage
 #[cfg(feature = "surface")]
 pub use surface::{check_surface, surface_scratch_len, vertex_normals, BindStats, SurfaceBinding};
 
-/// The README's code examples, compiled and run as doctests (they use the
-/// tool, a `VecScene` and an embedded surface).
-#[cfg(all(doctest, feature = "tool", feature = "alloc", feature = "surface"))]
+/// The README's code example, compiled and run as a doctest (it uses the
+/// tool).
+#[cfg(all(doctest, feature = "tool"))]
 #[doc = include_str!("../../README.md")]
 pub struct ReadmeDoctests;

@@ -53,7 +53,7 @@ pub struct StaticSettings {
     /// local coordinates, so its round-off is `ε·|edge|`, and the force
     /// residual stalls at about 1% of the load on a 10×2×2 beam with E = 1e9
     /// while the updates stall at 2–3e-5 of the displacement (measured with
-    /// `cargo test -p corofem-host-tests --test statics -- --nocapture`).
+    /// `cargo test -p corofem-host-tests --test host statics:: -- --nocapture`).
     pub update_tolerance: f32,
     /// Precondition CG with the two-level preconditioner of `K` (node
     /// blocks plus rigid-body modes of node aggregates) where the build has
