@@ -366,7 +366,7 @@ pub fn keys() -> Vec<KeyDoc> {
     let v = |x: f32| format!("{:?}", x.to_string().parse::<f64>().unwrap_or(0.0));
     let g = d.gravity;
     #[rustfmt::skip]
-    let rows: [(&'static str, &'static str, String, &'static str); 56] = [
+    let rows: [(&'static str, &'static str, String, &'static str); 57] = [
         ("[mesh]", "file", "required, or generator".into(), "mesh file: .tetmesh, Gmsh .msh (v2, v4), .vtk, .vtu"),
         ("[mesh]", "generator", "none".into(), "\"box\": a box split into tetrahedra, instead of file"),
         ("[mesh]", "size", "required with generator".into(), "[x, y, z]: the box's size (m)"),
@@ -387,6 +387,7 @@ pub fn keys() -> Vec<KeyDoc> {
         ("[solver]", "static", "false".into(), "true: solve for static equilibrium instead of stepping"),
         ("[solver]", "warm_start", format!("{} ({} with \"mass\")", d.warm_start, mass.warm_start), "start CG from the last step's solution"),
         ("[solver]", "energy_guard", d.energy_guard.to_string(), "take out energy that inverted elements made"),
+        ("[solver]", "free_rotation", d.free_rotation.to_string(), "a free body that moves as one turns by a rigid rotation"),
         ("[solver]", "preconditioner", format!("{:?}", d.preconditioner.name()), "\"two-level\", \"block-jacobi\" or \"mass\" (the paper's CG)"),
         ("[solver]", "newton_iterations", st.max_iterations.to_string(), "static: most Newton iterations"),
         ("[solver]", "newton_tolerance", v(st.tolerance), "static: out-of-balance force / load that counts as converged"),
