@@ -34,8 +34,9 @@ impl Preconditioner {
         Preconditioner::TwoLevel,
     ];
 
-    /// The default: `TwoLevel` where the feature `two-level` is compiled in,
-    /// else `Mass`, the paper's CG.
+    /// The preconditioner of this build's defaults ([`Settings::compiled`]
+    /// of [`Settings::new`]): `TwoLevel` where the feature `two-level` is
+    /// compiled in, else `Mass`, the paper's CG.
     pub const DEFAULT: Preconditioner = if cfg!(feature = "two-level") {
         Preconditioner::TwoLevel
     } else {
@@ -76,14 +77,13 @@ impl Default for Preconditioner {
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Settings {
     /// Element method; one that is not compiled in is refused
-    /// ([`Error::MethodNotCompiled`](crate::Error::MethodNotCompiled)). Default [`Method::DEFAULT`]:
-    /// `QrInvertible` where compiled in, else `Qr`.
+    /// ([`Error::MethodNotCompiled`](crate::Error::MethodNotCompiled)).
+    /// Default `QrInvertible` ([`Method::DEFAULT`] in a build without it).
     pub method: Method,
     /// Time step `h` (s, `> 0`). Default 0.001.
     pub dt: f32,
     /// Conjugate-gradient iterations per step (`≥ 1`): the budget. Default 4
-    /// where the default preconditioner is `TwoLevel` (feature `two-level`),
-    /// else 5.
+    /// with `TwoLevel`, 5 with `Mass` ([`Settings::with_preconditioner`]).
     ///
     /// A solve stops at the budget only where its truncation adds no energy
     /// to the body (the step's energy certificate, checked with one pass
@@ -112,9 +112,10 @@ pub struct Settings {
     /// product takes the velocity plus the guess. Steps with ground
     /// contacts start cold. A guess cannot add energy: the energy
     /// certificate of [`Settings::cg_iterations`] holds for every start.
-    /// Default on where the default preconditioner is `TwoLevel`, else off.
+    /// Default on with `TwoLevel`, off with `Mass`.
     pub warm_start: bool,
-    /// What preconditions CG. Default [`Preconditioner::DEFAULT`].
+    /// What preconditions CG. Default `TwoLevel` ([`Preconditioner::DEFAULT`]
+    /// in a build or a storage without it).
     pub preconditioner: Preconditioner,
     /// Gravity (m/s²). Default `(0, 0, −9.81)`.
     pub gravity: Vec3,

@@ -86,24 +86,29 @@ impl Default for Method {
 }
 
 impl Method {
-    /// `QrInvertible` when compiled in, else `Qr`, otherwise the first
-    /// compiled method.
+    /// The method of this build's defaults (`Settings::compiled` of
+    /// `Settings::new`): `QrInvertible` when compiled in, else `Qr`,
+    /// otherwise the first compiled method.
     #[cfg(feature = "qr-invertible")]
     pub const DEFAULT: Method = Method::QrInvertible;
-    /// `QrInvertible` when compiled in, else `Qr`, otherwise the first
-    /// compiled method.
+    /// The method of this build's defaults (`Settings::compiled` of
+    /// `Settings::new`): `QrInvertible` when compiled in, else `Qr`,
+    /// otherwise the first compiled method.
     #[cfg(all(not(feature = "qr-invertible"), feature = "qr"))]
     pub const DEFAULT: Method = Method::Qr;
-    /// `QrInvertible` when compiled in, else `Qr`, otherwise the first
-    /// compiled method.
+    /// The method of this build's defaults (`Settings::compiled` of
+    /// `Settings::new`): `QrInvertible` when compiled in, else `Qr`,
+    /// otherwise the first compiled method.
     #[cfg(all(not(feature = "qr"), feature = "polar"))]
     pub const DEFAULT: Method = Method::Polar;
-    /// `QrInvertible` when compiled in, else `Qr`, otherwise the first
-    /// compiled method.
+    /// The method of this build's defaults (`Settings::compiled` of
+    /// `Settings::new`): `QrInvertible` when compiled in, else `Qr`,
+    /// otherwise the first compiled method.
     #[cfg(all(not(feature = "qr"), not(feature = "polar"), feature = "linear"))]
     pub const DEFAULT: Method = Method::Linear;
-    /// `QrInvertible` when compiled in, else `Qr`, otherwise the first
-    /// compiled method.
+    /// The method of this build's defaults (`Settings::compiled` of
+    /// `Settings::new`): `QrInvertible` when compiled in, else `Qr`,
+    /// otherwise the first compiled method.
     #[cfg(all(
         not(feature = "qr"),
         not(feature = "polar"),

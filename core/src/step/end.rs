@@ -83,7 +83,7 @@ pub(super) fn turn(
 pub(super) fn impact(
     ctx: &Ctx,
     held: &Held,
-    carry: Carry,
+    carry: &Carry,
     end: &mut End,
     nodes: &[Node],
     elems: &[ElementBlock],

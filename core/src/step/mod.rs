@@ -16,24 +16,8 @@
 //! the maths needs them (after Box2D v3's solver stages). Each stage is a
 //! function of its own room; a model whose feature is off compiles its
 //! stage to nothing, so the orchestrator ([`step_inline`]) reads the same in
-//! every build:
-//!
-//! | stage | room | what |
-//! |---|---|---|
-//! | detect | `contact` | which obstacle (ground, probe) holds each node; friction's stick or slide |
-//! | carry | `contact` | the ground's rigid helpers: the resting body's carried guess, the rigid lift |
-//! | guess | [`guess`] | the initial guess (free fall, warm start, held normals) and the product's input |
-//! | element pass | `pass` | elastic forces, world gradients, `−K (v + x₀)` |
-//! | prepare | `precond` | the preconditioner's blocks, rotations and coarse factor |
-//! | residual | [`rhs`] | `b − A x₀`, the tool's spring, loads, friction drag, the guard's ledger |
-//! | guard | `guard` | the energy guard's correction of the starting velocity |
-//! | solve | [`solve`] | CG with its energy certificate, the Galerkin fallback, the momentum fix |
-//! | relax | `contact` | the push out of an obstacle taken back out of the velocity |
-//! | end | [`end`] | candidate positions and velocities |
-//! | turn | `turn` | a free body's rotation made a rotation |
-//! | impact | `contact` | a landing body stopped as a whole |
-//! | impulses | [`end`] | each node's landing, contact and friction impulse, the support and tool forces; finite or refused |
-//! | commit | [`end`] | the state, the contacts' next flags, the guard's reference, the statistics |
+//! every build. The stages, their rooms and what each does are the table of
+//! the crate's documentation ("The step", lib.rs).
 
 mod end;
 mod guess;
@@ -191,7 +175,7 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
     // impulses (refused unless finite).
     let mut end = end::candidates(&ctx, &held, nodes, work);
     end::turn(&ctx, &solved, &mut end, nodes, elems, n_elems, work);
-    end::impact(&ctx, &held, carry, &mut end, nodes, elems, n_elems, work);
+    end::impact(&ctx, &held, &carry, &mut end, nodes, elems, n_elems, work);
     let forces = end::impulses(
         hdr,
         &ctx,
