@@ -145,15 +145,7 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
 
     // Element pass: elastic forces into r, −K d into q.
     let was_inverted = hdr.inverted > 0;
-    let totals = pass::forces::<B, true, true>(
-        b,
-        ctx.s.method,
-        ctx.per_young,
-        nodes,
-        elems,
-        n_elems,
-        pass::IntoWork(work),
-    );
+    let totals = element_pass(b, &ctx, nodes, elems, n_elems, work);
     hdr.inverted = totals.inverted;
 
     // The preconditioner, the right-hand side, the energy guard.
@@ -210,4 +202,32 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
         },
         energy_removed: removed,
     })
+}
+
+/// The element pass: elastic forces into `r`, `−K d` into `q`. Compiled as
+/// a function of its own off x86 (its loop then gets the registers to
+/// itself); inlined on x86 so that it is compiled for the step's
+/// instruction set.
+#[cfg_attr(any(target_arch = "x86", target_arch = "x86_64"), inline(always))]
+#[cfg_attr(not(any(target_arch = "x86", target_arch = "x86_64")), inline(never))]
+fn element_pass<B: Backend>(
+    b: B,
+    ctx: &Ctx,
+    nodes: &[crate::storage::Node],
+    elems: &mut [crate::element::ElementBlock],
+    n_elems: usize,
+    work: &mut [crate::storage::NodeWork],
+) -> pass::PassTotals {
+    // One length, so that the scatter needs no second bounds check.
+    let len = nodes.len().min(work.len());
+    let (nodes, work) = (&nodes[..len], &mut work[..len]);
+    pass::forces::<B, true, true>(
+        b,
+        ctx.s.method,
+        ctx.per_young,
+        nodes,
+        elems,
+        n_elems,
+        pass::IntoWork(work),
+    )
 }
