@@ -135,6 +135,12 @@ pub struct Settings {
     /// library built with the feature `free-rotation` (the host default),
     /// else 0; nonzero without it is refused (`COROFEM_INVALID_ARGUMENT`).
     pub free_rotation: u32,
+    /// Most rounds of the contact state in a step (with friction): after
+    /// the solve a held node's friction is made Coulomb's for the impulse
+    /// it computed, and while that changes a node the solve goes on (the
+    /// step's CG budget per round). 0: one solve, the state decided after
+    /// the last step. Default 4.
+    pub contact_rounds: u32,
 }
 
 impl Settings {
@@ -153,6 +159,7 @@ impl Settings {
             preconditioner: preconditioner_code(s.preconditioner),
             energy_guard: u32::from(s.energy_guard),
             free_rotation: u32::from(s.free_rotation),
+            contact_rounds: s.contact_rounds,
         }
     }
 
@@ -170,6 +177,7 @@ impl Settings {
             gravity: self.gravity,
             energy_guard: self.energy_guard != 0,
             free_rotation: self.free_rotation != 0,
+            contact_rounds: self.contact_rounds,
         })
     }
 }

@@ -88,6 +88,7 @@ struct RawSolver {
     warm_start: Option<bool>,
     energy_guard: Option<bool>,
     free_rotation: Option<bool>,
+    contact_rounds: Option<i64>,
     preconditioner: Option<String>,
     newton_iterations: Option<i64>,
     newton_tolerance: Option<f64>,
@@ -366,7 +367,7 @@ pub fn keys() -> Vec<KeyDoc> {
     let v = |x: f32| format!("{:?}", x.to_string().parse::<f64>().unwrap_or(0.0));
     let g = d.gravity;
     #[rustfmt::skip]
-    let rows: [(&'static str, &'static str, String, &'static str); 57] = [
+    let rows: [(&'static str, &'static str, String, &'static str); 58] = [
         ("[mesh]", "file", "required, or generator".into(), "mesh file: .tetmesh, Gmsh .msh (v2, v4), .vtk, .vtu"),
         ("[mesh]", "generator", "none".into(), "\"box\": a box split into tetrahedra, instead of file"),
         ("[mesh]", "size", "required with generator".into(), "[x, y, z]: the box's size (m)"),
@@ -388,6 +389,7 @@ pub fn keys() -> Vec<KeyDoc> {
         ("[solver]", "warm_start", format!("{} ({} with \"mass\")", d.warm_start, mass.warm_start), "start CG from the last step's solution"),
         ("[solver]", "energy_guard", d.energy_guard.to_string(), "take out energy that inverted elements made"),
         ("[solver]", "free_rotation", d.free_rotation.to_string(), "a free body that moves as one turns by a rigid rotation"),
+        ("[solver]", "contact_rounds", d.contact_rounds.to_string(), "friction: most solves more per step that make it Coulomb's"),
         ("[solver]", "preconditioner", format!("{:?}", d.preconditioner.name()), "\"two-level\", \"block-jacobi\" or \"mass\" (the paper's CG)"),
         ("[solver]", "newton_iterations", st.max_iterations.to_string(), "static: most Newton iterations"),
         ("[solver]", "newton_tolerance", v(st.tolerance), "static: out-of-balance force / load that counts as converged"),
@@ -1042,6 +1044,17 @@ impl Ctx<'_> {
                 "a whole number >= 1",
             )? as u32),
         };
+        let contact_rounds = match s.contact_rounds {
+            None => d.contact_rounds,
+            Some(n) => self.int(
+                S,
+                "contact_rounds",
+                n,
+                0,
+                i64::from(u32::MAX),
+                "a whole number >= 0",
+            )? as u32,
+        };
         let cg_tolerance = match s.cg_tolerance {
             None => None,
             Some(x) => Some(self.real(
@@ -1094,6 +1107,7 @@ impl Ctx<'_> {
             warm_start: s.warm_start.unwrap_or(d.warm_start),
             energy_guard: s.energy_guard.unwrap_or(d.energy_guard),
             free_rotation: s.free_rotation.unwrap_or(d.free_rotation),
+            contact_rounds,
             preconditioner,
             gravity,
         };

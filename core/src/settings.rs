@@ -153,6 +153,17 @@ pub struct Settings {
     /// free body. Needs the feature `free-rotation` (`true` without it is
     /// refused). Default on.
     pub free_rotation: bool,
+    /// Most rounds of the contact state in a step (with the feature
+    /// `friction`; nothing without it). After the solve, each held node's
+    /// friction is made Coulomb's for the impulse the solve computed: a
+    /// sticking node whose impulse leaves the static cone slides, a
+    /// sliding node's kinetic force follows its normal impulse, one that
+    /// its force turned back sticks. While a round changes a node the solve
+    /// goes on from where it stopped, with `cg_iterations` more. 0 keeps
+    /// the state the step started with (each node's decided after the last
+    /// step): one solve, but a node that lands or starts to stick is
+    /// stopped by whatever impulse that takes. Default 4.
+    pub contact_rounds: u32,
 }
 
 impl Settings {
@@ -218,6 +229,7 @@ impl Settings {
             gravity: [0.0, 0.0, -9.81],
             energy_guard: true,
             free_rotation: true,
+            contact_rounds: 4,
         }
     }
 
@@ -236,6 +248,7 @@ impl Settings {
         gravity: [0.0; 3],
         energy_guard: false,
         free_rotation: false,
+        contact_rounds: 0,
     };
 
     /// The most CG iterations a step runs: `2 cg_iterations + 16`. The

@@ -111,6 +111,7 @@ pub fn settings(u: &mut Unstructured) -> Result<Settings> {
     };
     let energy_guard = u.arbitrary()?;
     let free_rotation = u.arbitrary()?;
+    let contact_rounds = u32::from(u.int_in_range(0u8..=8)?);
     Ok(Settings {
         method,
         dt,
@@ -123,6 +124,7 @@ pub fn settings(u: &mut Unstructured) -> Result<Settings> {
         gravity,
         energy_guard,
         free_rotation,
+        contact_rounds,
     })
 }
 

@@ -114,7 +114,7 @@ fn firmware_scene_in_contact_golden_hashes() {
     let golden = [
         (ContactSet::GROUND, 0x4ad0_b5a8_7475_d643),
         (ContactSet::PROBE, 0xf489_d484_63b4_e5e2),
-        (ContactSet::PROBE_FRICTION, 0x4d2d_2207_5df3_9775),
+        (ContactSet::PROBE_FRICTION, 0x4a99_2584_8615_1890),
     ];
     for (set, want) in golden {
         let (out, _) = run_contact(set);

@@ -225,6 +225,7 @@ fn settings() -> impl Strategy<Value = Settings> + Clone {
                     gravity,
                     energy_guard: guard,
                     free_rotation,
+                    ..Settings::new()
                 }
             },
         )

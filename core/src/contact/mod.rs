@@ -585,11 +585,7 @@ pub(crate) fn impulse(
             let mut impulse = scale(c.normal, -kept);
             #[cfg(feature = "friction")]
             {
-                let h = ground.h;
-                let dv;
-                (impulse, dv) = friction(&c, n, w, impulse, v, kept, relaxed, h);
-                v = add(v, dv);
-                u = axpy(u, h, dv);
+                impulse = friction(&c, n, w, impulse, v, kept, relaxed, ground.h);
             }
             if n.contact == ON_GROUND {
                 *support = add(*support, impulse);
@@ -620,13 +616,13 @@ pub(crate) fn impulse(
 }
 
 /// Friction at a held node with the normal impulse `impulse` (`kept` along
-/// the normal): the whole impulse and the velocity change friction makes.
-/// A sticking node's tangential impulse is its residual's; beyond the
-/// static cone, the node slides from the next step. A sliding node's is the
-/// kinetic force's (in the solve's right-hand side); one that it stopped
-/// (its velocity along the plane no longer against the force) loses what
-/// is left of that velocity and sticks. Plans the next step's drag in
-/// `reaction`.
+/// the normal) and end velocity `v`: the whole impulse, and the next step's
+/// friction planned in `reaction`. A sticking node's tangential impulse is
+/// its residual's; beyond the static cone (where the cone stage's rounds
+/// ran out) it slides from the next step, with the kinetic force along
+/// it. A sliding node's is its kinetic force's (in the solve's right-hand
+/// side); it slides on against its slip, or, turned back by its friction,
+/// sticks from the next step.
 #[cfg(feature = "friction")]
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
@@ -639,28 +635,186 @@ fn friction(
     kept: f32,
     relaxed: bool,
     h: f32,
-) -> (Vec3, Vec3) {
-    let mut impulse = impulse;
-    let mut dv = [0.0; 3];
-    let next = if n.flags & STUCK != 0 {
+) -> Vec3 {
+    let press = -kept;
+    let (tangential, next) = if n.flags & STUCK != 0 {
         let r = if relaxed { sub(w.reaction, w.r) } else { w.r };
-        impulse = scale(r, -1.0);
-        c.drag_after_stick(impulse, h)
+        let held = c.filter(scale(r, -1.0));
+        (held, c.drag_after_stick(add(impulse, held), h))
     } else if w.drag != [0.0; 3] {
-        impulse = axpy(impulse, h, w.drag);
-        let rel = c.sliding(v, h);
-        if dot(rel, w.drag) < 0.0 {
-            c.drag(scale(rel, -1.0), -kept, h)
-        } else {
-            dv = scale(rel, -1.0);
+        let slip = c.sliding(v, h);
+        let next = if turned_back(n, slip, w.drag, h) {
             [0.0; 3]
-        }
+        } else if dot(slip, w.drag) < 0.0 {
+            c.drag(scale(slip, -1.0), press, h)
+        } else {
+            c.drag(w.drag, press, h)
+        };
+        (scale(w.drag, h), next)
     } else {
-        [0.0; 3]
+        ([0.0; 3], [0.0; 3])
     };
     w.reaction = next;
-    impulse = axpy(impulse, n.mass, dv);
-    (impulse, dv)
+    add(impulse, tangential)
+}
+
+/// Whether a sliding node's friction force `drag` turned it back: its slip
+/// `slip` (relative to the obstacle) is along the force, by more than the
+/// rounding of its position over the step `h`. A slip within that rounding
+/// is no motion: the node is on the point of slipping and slides on, at
+/// the force of the cone's edge.
+#[cfg(feature = "friction")]
+#[inline(always)]
+fn turned_back(n: &Node, slip: Vec3, drag: Vec3, h: f32) -> bool {
+    if dot(slip, drag) < 0.0 {
+        return false;
+    }
+    let x = n.position();
+    let size = x[0].abs() + x[1].abs() + x[2].abs();
+    h * crate::math::sqrt(dot(slip, slip)) > 4.0 * f32::EPSILON * size
+}
+
+/// What a round of the cone stage changed.
+#[derive(Clone, Copy, Default)]
+pub(crate) struct Round {
+    /// Nodes whose friction state or force changed: the solve goes on.
+    pub(crate) changed: u32,
+    /// Nodes that stick again: their velocity change moved by `d`, whose
+    /// `A d` the residual must lose before the solve goes on.
+    pub(crate) moved: u32,
+}
+
+/// The kinetic force of a sliding node is made that of the current normal
+/// impulse when it moves by more than this fraction of itself. A
+/// truncated solve's impulses move by more than that from round to round,
+/// so the rounds run out first: the fraction only ends them early where
+/// the solve has settled.
+#[cfg(feature = "friction")]
+const DRAG_TOLERANCE: f32 = 1e-2;
+
+/// The cone stage: one round of the friction state of the held nodes,
+/// decided by the impulses `λ = −r` of the solve just made (feature
+/// `friction`; nothing without it):
+///
+/// * a sticking node whose impulse leaves the static cone
+///   (`|λₜ| > μs λₙ`) slides, with the kinetic force `μk λₙ / h` along its
+///   tangential impulse;
+/// * a sliding node's force follows its current `λₙ`; one that its force
+///   turned back (its slip `v + Δv`, relative to the obstacle, along the
+///   force beyond rounding) sticks;
+/// * a held node without friction yet (one that pulled in an earlier
+///   round) slides against its slip;
+/// * a node whose contact pulls (`λₙ < 0`) has no friction: a cone of
+///   negative height holds nothing. (Whether it stays held is the
+///   contact's rule after the solve.)
+///
+/// Every change keeps `r = b − A x` exact: a force adds `h` times itself to
+/// the residual, and a node that sticks again gets its prescribed velocity
+/// change in `x` and the move in `d` (zero elsewhere), for the caller to
+/// take `A d` off `r`. The solve then goes on from the iterate it stopped
+/// at, with the new state.
+#[inline(always)]
+pub(crate) fn cone(
+    obstacles: Obstacles<'_>,
+    nodes: &mut [Node],
+    work: &mut [NodeWork],
+    h: f32,
+) -> Round {
+    let _ = (obstacles, &nodes, &work, h);
+    #[allow(unused_mut)] // only friction changes the state
+    let mut round = Round::default();
+    #[cfg(feature = "friction")]
+    if obstacles.any() {
+        for (n, w) in nodes.iter_mut().zip(work.iter_mut()) {
+            w.d = [0.0; 3];
+            let Some(c) = obstacles.holding(n) else {
+                continue;
+            };
+            match slide_or_stick(&c, n, w, scale(w.r, -1.0), h) {
+                Change::None => {}
+                Change::Force => round.changed += 1,
+                Change::Moved => {
+                    round.changed += 1;
+                    round.moved += 1;
+                }
+            }
+        }
+    }
+    round
+}
+
+/// What a round changed at one node.
+#[cfg(feature = "friction")]
+enum Change {
+    None,
+    /// Its friction force.
+    Force,
+    /// Its prescribed velocity change (by `d`).
+    Moved,
+}
+
+/// The friction part of a round at a held node `n` with impulse `lambda`
+/// (`cone`).
+#[cfg(feature = "friction")]
+#[inline(always)]
+fn slide_or_stick(c: &Contact, n: &mut Node, w: &mut NodeWork, lambda: Vec3, h: f32) -> Change {
+    let press = dot(c.normal, lambda);
+    if !(press > 0.0) {
+        // It pulls: no friction.
+        if n.flags & STUCK != 0 {
+            n.flags &= !STUCK;
+            return Change::Force;
+        }
+        if w.drag != [0.0; 3] {
+            w.r = axpy(w.r, -h, w.drag);
+            w.drag = [0.0; 3];
+            return Change::Force;
+        }
+        return Change::None;
+    }
+    if n.flags & STUCK != 0 {
+        let drag = c.drag_after_stick(lambda, h);
+        if drag == [0.0; 3] {
+            return Change::None;
+        }
+        n.flags &= !STUCK;
+        w.drag = drag;
+        w.r = axpy(w.r, h, drag);
+        return Change::Force;
+    }
+    let slip = c.sliding(add(n.v, w.x), h);
+    if w.drag == [0.0; 3] {
+        // Held without friction (its contact pulled in an earlier
+        // round): it slides against its slip, and sticks if that turns
+        // it back.
+        let drag = c.drag(scale(slip, -1.0), press, h);
+        if drag == [0.0; 3] {
+            return Change::None;
+        }
+        w.drag = drag;
+        w.r = axpy(w.r, h, drag);
+        return Change::Force;
+    }
+    if turned_back(n, slip, w.drag, h) {
+        // Turned back (or stopped): it sticks, its friction force gone,
+        // its slip taken out of `x`.
+        n.flags |= STUCK;
+        w.r = axpy(w.r, -h, w.drag);
+        w.drag = [0.0; 3];
+        w.d = scale(slip, -1.0);
+        w.x = add(w.x, w.d);
+        return Change::Moved;
+    }
+    // Along the force it has: the slip's direction settles only with the
+    // step (`friction` plans the next step's from it).
+    let drag = c.drag(w.drag, press, h);
+    let moved = sub(drag, w.drag);
+    if dot(moved, moved) <= DRAG_TOLERANCE * DRAG_TOLERANCE * dot(drag, drag) {
+        return Change::None;
+    }
+    w.r = axpy(w.r, h, moved);
+    w.drag = drag;
+    Change::Force
 }
 
 /// The commit of node `n`'s contact flags: a held node whose contact would

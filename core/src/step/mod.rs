@@ -157,7 +157,22 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
 
     // The solve, the momentum fix, the push's relaxation.
     let sys = solve::system(b, hdr, &ctx, &probes, nodes, elems, n_elems);
-    let solved = solve::solve(&sys, &ctx, kind, &mut pre, correction.as_ref(), nodes, work)?;
+    let mut solved = solve::solve(&sys, &ctx, kind, &mut pre, correction.as_ref(), nodes, work)?;
+    solve::cone(
+        b,
+        hdr,
+        &ctx,
+        &probes,
+        kind,
+        &mut pre,
+        correction.as_ref(),
+        &mut solved,
+        nodes,
+        elems,
+        n_elems,
+        work,
+    )?;
+    let sys = solve::system(b, hdr, &ctx, &probes, nodes, elems, n_elems);
     solve::keep_momentum(&ctx, totals.inverted, &lists, nodes, work);
     let fixed_r = solve::relax(
         &sys, &ctx, &held, &carry, kind, &probes, &mut pre, nodes, work,
@@ -188,7 +203,7 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
     let removed = correction.map_or(0.0, |c| c.removed);
     rhs::remember(hdr, &ctx, &energy, forces.closed, removed);
     Ok(StepStats {
-        cg_iterations: outcome.iterations,
+        cg_iterations: outcome.iterations + solved.again,
         galerkin: !outcome.certified,
         cg_residual: outcome.residual,
         inverted: totals.inverted,

@@ -8,7 +8,7 @@ use crate::cg::{self, CgOutcome};
 use crate::contact::{Carry, Held, Obstacles, Probes};
 use crate::element::ElementBlock;
 use crate::guard::Correction;
-use crate::math::{add, axpy, dot, scale, Vec3};
+use crate::math::{add, axpy, dot, scale, sub, Vec3};
 use crate::pass;
 use crate::rigid::Rigid;
 use crate::settings::Preconditioner;
@@ -101,6 +101,8 @@ pub(super) struct Solved {
     /// preconditioner needed it (the nodes have not moved since).
     #[cfg_attr(not(feature = "free-rotation"), allow(dead_code))]
     pub(super) rigid: Option<Rigid>,
+    /// Iterations of the solves after the contact set changed (`cone`).
+    pub(super) again: u32,
 }
 
 /// The solve stage: CG from the guess, with the energy certificate, and the
@@ -169,7 +171,56 @@ where
             start,
         );
     }
-    Ok(Solved { outcome, rigid })
+    Ok(Solved {
+        outcome,
+        rigid,
+        again: 0,
+    })
+}
+
+/// The cone stage (`contact::cone`): the friction state made Coulomb's
+/// for the impulses the solve computed. While a round changes a node, the
+/// solve goes on from where it stopped with the new state, at most
+/// [`Settings::contact_rounds`](crate::Settings::contact_rounds) times.
+/// Without the feature `friction` nothing changes and this is nothing.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub(super) fn cone<B: Backend>(
+    b: B,
+    hdr: &Header,
+    ctx: &Ctx,
+    probes: &Probes<'_>,
+    kind: Preconditioner,
+    pre: &mut PreSlots<'_>,
+    correction: Option<&Correction>,
+    solved: &mut Solved,
+    nodes: &mut [Node],
+    elems: &[ElementBlock],
+    n_elems: usize,
+    work: &mut [NodeWork],
+) -> Result<(), StepError> {
+    for _ in 0..ctx.s.contact_rounds {
+        let round = crate::contact::cone(Obstacles::new(ctx.ground, probes), nodes, work, ctx.h);
+        if round.changed == 0 {
+            break;
+        }
+        let mut sys = system(b, hdr, ctx, probes, nodes, elems, n_elems);
+        if round.moved > 0 {
+            // r = b − A x with the moved x: r −= A d.
+            for w in work.iter_mut() {
+                w.q = [0.0; 3];
+            }
+            let _ = (sys.apply)(work);
+            for w in work.iter_mut() {
+                w.r = sub(w.r, w.q);
+            }
+        }
+        let again = solve(&sys, ctx, kind, pre, correction, nodes, work)?;
+        solved.again += again.outcome.iterations;
+        solved.outcome.residual = again.outcome.residual;
+        solved.outcome.certified &= again.outcome.certified;
+    }
+    Ok(())
 }
 
 /// The momentum fix: `QrInvertible`'s inverted elements take the closest

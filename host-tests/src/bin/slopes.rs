@@ -1,0 +1,269 @@
+//! The slope sweep (docs/contact.md): blocks on the ground under gravity
+//! tilted by θ, with Coulomb friction μ, across μ, θ around the friction
+//! angle, block shapes, tetrahedra per cell, dt and stiffness, with the
+//! default settings. Prints one row per case: the distance slid in the
+//! run against Coulomb's `½ g (sin θ − μ cos θ) t²` (0 below the angle),
+//! the centre's acceleration after break-away, and the worst cone ratio
+//! `|s_t| / (μ s_n)` of the support a step reports.
+//!
+//! `cargo run --release -p corofem-host-tests --bin slopes [-- --quick]`
+//! (`--quick`: the 4 × 4 × 2 cm block at dt 1 ms only; `--one MU THETA
+//! TETS YOUNG DT`: one case of that block). Exits non-zero if a case
+//! misses Coulomb's law by more than the bounds of docs/contact.md: below
+//! the angle, the centre moves by more than 10 µm over the run's second
+//! half; above, its acceleration there is off by more than 2 %, or a
+//! step's support leaves the cone by more than 1 %, or has a tangential
+//! part without a normal one.
+//!
+//! Settings other than the defaults, for comparisons: `SLOPES_ROUNDS`
+//! (`contact_rounds`), `SLOPES_CG` (`cg_iterations`, with `cg_tolerance`
+//! 1e-6), `SLOPES_KINETIC` (a kinetic coefficient below μ);
+//! `SLOPES_TRACE=1` prints the steps of `--one`.
+
+use corofem::{Friction, Material, Plane, Settings, VecScene};
+use corofem_host_tests::box_mesh;
+
+const G: f64 = 9.81;
+
+struct Case {
+    size: [f32; 3],
+    cells: [u32; 3],
+    tets: u8,
+    young: f32,
+    dt: f32,
+    mu: f32,
+    theta_deg: f32,
+    seconds: f32,
+}
+
+struct Row {
+    slid: f64,
+    /// The centre's motion along the slope over the run's second half.
+    late: f64,
+    expect: f64,
+    accel: f64,
+    expect_accel: f64,
+    cone: f64,
+    tangent_alone: u32,
+    inverted: u32,
+    cg: f64,
+}
+
+fn centre(scene: &VecScene) -> (f64, [f64; 3], [f64; 3]) {
+    let (mut m, mut x, mut v) = (0.0f64, [0.0f64; 3], [0.0f64; 3]);
+    for i in 0..scene.node_count() as u32 {
+        let mi = f64::from(scene.mass(i).unwrap());
+        let p = scene.position(i).unwrap();
+        let vi = scene.velocity(i).unwrap();
+        m += mi;
+        for k in 0..3 {
+            x[k] += mi * f64::from(p[k]);
+            v[k] += mi * f64::from(vi[k]);
+        }
+    }
+    (m, x.map(|c| c / m), v.map(|c| c / m))
+}
+
+fn run(c: &Case) -> Row {
+    let mesh = box_mesh(c.size, c.cells, c.tets);
+    let mut scene = mesh.scene(&Material {
+        young: c.young,
+        poisson: 0.3,
+        density: 1000.0,
+    });
+    scene.set_ground(Some(Plane::Z_UP)).unwrap();
+    let kinetic = std::env::var("SLOPES_KINETIC")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(c.mu);
+    scene.set_ground_friction(Friction::new(c.mu, kinetic).unwrap());
+    let theta = f64::from(c.theta_deg).to_radians();
+    let defaults = scene.default_settings();
+    scene
+        .set_settings(Settings {
+            dt: c.dt,
+            gravity: [(G * theta.sin()) as f32, 0.0, (-G * theta.cos()) as f32],
+            cg_iterations: std::env::var("SLOPES_CG")
+                .ok()
+                .and_then(|v| v.parse().ok())
+                .unwrap_or(defaults.cg_iterations),
+            cg_tolerance: if std::env::var_os("SLOPES_CG").is_some() {
+                1e-6
+            } else {
+                defaults.cg_tolerance
+            },
+            contact_rounds: std::env::var("SLOPES_ROUNDS")
+                .ok()
+                .and_then(|v| v.parse().ok())
+                .unwrap_or(defaults.contact_rounds),
+            ..defaults
+        })
+        .unwrap();
+    let steps = (c.seconds / c.dt).round() as u32;
+    let (_, x0, _) = centre(&scene);
+    let mu = f64::from(c.mu);
+    let expect_accel = (G * (theta.sin() - mu * theta.cos())).max(0.0);
+    let t = f64::from(steps) * f64::from(c.dt);
+    let (mut cone, mut alone, mut inverted) = (0.0f64, 0u32, 0u32);
+    let mut v_half = 0.0;
+    let mut x_half = 0.0;
+    let mut cg = 0u64;
+    let trace = std::env::var_os("SLOPES_TRACE").is_some();
+    for k in 1..=steps {
+        let v_before = centre(&scene).2;
+        let s = scene.step().unwrap();
+        let weight = centre(&scene).0 * G;
+        if trace && (k < 40 || k % 50 == 0) {
+            let f = s.support_force.map(f64::from);
+            let (_, _, v) = centre(&scene);
+            eprintln!(
+                "step {k:4} contacts {:3} cg {:3} support n {:.5} t {:.5} ratio {:.3} vx {:.5} miss {:.2e}",
+                s.contacts,
+                s.cg_iterations,
+                f[2],
+                (f[0] * f[0] + f[1] * f[1]).sqrt(),
+                (f[0] * f[0] + f[1] * f[1]).sqrt() / (mu * f[2]),
+                v[0],
+                (weight / G) * (v[0] - v_before[0]) / f64::from(c.dt) - (weight * theta.sin() + f[0])
+            );
+        }
+        inverted = inverted.max(s.inverted);
+        cg += u64::from(s.cg_iterations);
+        let f = s.support_force.map(f64::from);
+        // The support in the slope's frame: normal along z, tangent x, y.
+        let normal = f[2];
+        let tangent = (f[0] * f[0] + f[1] * f[1]).sqrt();
+        if normal > 1e-6 * weight {
+            cone = cone.max(tangent / (mu * normal));
+        } else if tangent > 1e-6 * weight {
+            alone += 1;
+        }
+        if k == steps / 2 {
+            let (_, x, v) = centre(&scene);
+            v_half = v[0];
+            x_half = x[0];
+        }
+    }
+    let (_, x1, v1) = centre(&scene);
+    Row {
+        slid: x1[0] - x0[0],
+        late: x1[0] - x_half,
+        expect: 0.5 * expect_accel * t * t,
+        accel: (v1[0] - v_half) / (t - f64::from(steps / 2) * f64::from(c.dt)),
+        expect_accel,
+        cone,
+        tangent_alone: alone,
+        inverted,
+        cg: cg as f64 / f64::from(steps),
+    }
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    if let Some(i) = args.iter().position(|a| a == "--one") {
+        // --one MU THETA TETS YOUNG DT: one case, traced with SLOPES_TRACE.
+        let num = |k: usize| args[i + k].parse::<f32>().expect("a number");
+        let c = Case {
+            size: [0.04, 0.04, 0.02],
+            cells: [4, 4, 2],
+            tets: num(3) as u8,
+            young: num(4),
+            dt: num(5),
+            mu: num(1),
+            theta_deg: num(2),
+            seconds: 0.5,
+        };
+        let r = run(&c);
+        println!(
+            "slid {:.4} coulomb {:.4} accel {:.4} expect {:.4} cone {:.3} alone {} inverted {} cg {:.1}",
+            r.slid, r.expect, r.accel, r.expect_accel, r.cone, r.tangent_alone, r.inverted, r.cg
+        );
+        return;
+    }
+    let quick = args.iter().any(|a| a == "--quick");
+    let blocks: &[([f32; 3], [u32; 3])] = if quick {
+        &[([0.04, 0.04, 0.02], [4, 4, 2])]
+    } else {
+        &[
+            ([0.04, 0.04, 0.02], [4, 4, 2]),
+            ([0.1, 0.1, 0.05], [5, 5, 3]),
+            ([0.02, 0.02, 0.04], [2, 2, 4]),
+        ]
+    };
+    let dts: &[f32] = if quick { &[1e-3] } else { &[5e-4, 1e-3, 5e-3] };
+    let mut failed = 0;
+    println!(
+        "{:>16} {:>3} {:>6} {:>7} {:>4} {:>5} {:>6} {:>9} {:>9} {:>9} {:>9} {:>6} {:>5} {:>3} {:>5}",
+        "block",
+        "tet",
+        "E",
+        "dt",
+        "mu",
+        "theta",
+        "angle",
+        "slid",
+        "coulomb",
+        "accel",
+        "expect",
+        "cone",
+        "alone",
+        "inv",
+        "cg"
+    );
+    for &(size, cells) in blocks {
+        for tets in [5u8, 6] {
+            for young in [1e5f32, 1e7] {
+                for &dt in dts {
+                    for mu in [0.1f32, 0.3, 0.5, 0.8, 1.0] {
+                        let angle = mu.atan().to_degrees();
+                        for off in [-5.0f32, 5.0, 15.0, 25.0] {
+                            let theta = angle + off;
+                            if !(1.0..89.0).contains(&theta) {
+                                continue;
+                            }
+                            let c = Case {
+                                size,
+                                cells,
+                                tets,
+                                young,
+                                dt,
+                                mu,
+                                theta_deg: theta,
+                                seconds: 0.5,
+                            };
+                            let r = run(&c);
+                            let bad = if r.expect_accel == 0.0 {
+                                r.late.abs() > 1e-5
+                            } else {
+                                (r.accel - r.expect_accel).abs() > 0.02 * r.expect_accel
+                            } || r.cone > 1.01
+                                || r.tangent_alone > 0;
+                            failed += u32::from(bad);
+                            println!(
+                                "{:>16} {:>3} {:>6.0e} {:>7.1e} {:>4.1} {:>5.1} {:>6.1} {:>9.4} {:>9.4} {:>9.4} {:>9.4} {:>6.3} {:>5} {:>3} {:>5.1}{}",
+                                format!("{:?}", size.map(|s| s * 100.0)),
+                                tets,
+                                young,
+                                dt,
+                                mu,
+                                theta,
+                                angle,
+                                r.slid,
+                                r.expect,
+                                r.accel,
+                                r.expect_accel,
+                                r.cone,
+                                r.tangent_alone,
+                                r.inverted,
+                                r.cg,
+                                if bad { "  FAIL" } else { "" }
+                            );
+                        }
+                    }
+                }
+            }
+        }
+    }
+    println!("slopes: {failed} failed");
+    std::process::exit(i32::from(failed > 0));
+}
