@@ -28,16 +28,16 @@ pub enum Error {
     },
     /// The mesh has no tetrahedron.
     NoElements,
-    /// More nodes to grab than the storage's grab slots (`G` of
-    /// `ArrayStorage`).
+    /// More nodes to grab than the storage's grab slots
+    /// ([`Slots::grabs`](crate::Slots::grabs)).
     TooManyGrabbed {
         /// Distinct nodes asked for.
         count: usize,
         /// Grab slots of the storage.
         capacity: usize,
     },
-    /// A force on one more node than the storage's load slots (`L` of
-    /// `ArrayStorage`).
+    /// A force on one more node than the storage's load slots
+    /// ([`Slots::loads`](crate::Slots::loads)).
     TooManyLoads {
         /// Load slots of the storage, all in use.
         capacity: usize,

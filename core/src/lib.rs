@@ -58,10 +58,10 @@
 //! let mut tets = [[0u32; 4]; 240];
 //! let (n, t) = mesh.generate(&mut nodes, &mut tets).unwrap();
 //!
-//! // Elements are stored in blocks: `element_blocks` sizes them for 240.
-//! type Beam = StaticScene<99, { corofem::element_blocks(240) }>;
-//! static mut SCENE: Beam = Beam::new(); // fits in a static
-//! let mut scene = Beam::new();
+//! // The scene's capacity: up to 99 nodes and 240 tetrahedra.
+//! corofem::capacity! { struct Beam { nodes: 99, elements: 240 } }
+//! static mut SCENE: StaticScene<Beam> = StaticScene::new(); // fits in a static
+//! let mut scene = StaticScene::<Beam>::new();
 //! let material = Material { young: 1.0e6, poisson: 0.3, density: 1000.0 };
 //! scene.build(&nodes[..n], &tets[..t], &material, BuildOptions::default()).unwrap();
 //! let fixed: Vec<u32> = (0..n as u32).filter(|&i| nodes[i as usize][0] == 0.0).collect();
@@ -196,7 +196,9 @@ pub use settings::{Preconditioner, Settings, StepStats};
 pub use statics::{NewtonStats, StaticSettings};
 #[cfg(feature = "alloc")]
 pub use storage::VecStorage;
-pub use storage::{ArrayStorage, Node, NodeEntry, NodeWork, SliceStorage, Storage};
+pub use storage::{
+    ArrayStorage, Capacity, Node, NodeEntry, NodeWork, SliceStorage, SlotArray, Slots, Storage,
+};
 #[cfg(feature = "surface")]
 pub use surface::{check_surface, surface_scratch_len, vertex_normals, BindStats, SurfaceBinding};
 

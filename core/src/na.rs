@@ -356,8 +356,12 @@ mod tests {
             density: 1000.0,
         };
         let velocities: [[f32; 3]; 20] = core::array::from_fn(|i| [0.0, 0.01 * i as f32, 0.0]);
-        let mut a: StaticScene<20, { crate::element_blocks(24) }, 4> = StaticScene::new();
-        let mut b: StaticScene<20, { crate::element_blocks(24) }, 4> = StaticScene::new();
+        crate::capacity! {
+            /// Room for the box and a tool holding 4 nodes.
+            struct Small { nodes: 20, elements: 24, grabs: 4 }
+        }
+        let mut a = StaticScene::<Small>::new();
+        let mut b = StaticScene::<Small>::new();
         a.build(&nodes[..n], &tets[..t], &material, BuildOptions::default())
             .unwrap();
         b.build_points(

@@ -175,8 +175,9 @@ impl Settings {
     /// A build without a feature they need refuses them
     /// ([`Error::MethodNotCompiled`](crate::Error::MethodNotCompiled),
     /// [`Error::InvalidParameter`](crate::Error::InvalidParameter)), and a
-    /// storage without the two-level preconditioner's slots (a plain
-    /// [`StaticScene`](crate::StaticScene)) refuses the preconditioner
+    /// storage without the two-level preconditioner's slots (a
+    /// [`StaticScene`](crate::StaticScene) whose capacity leaves out
+    /// `preconditioner`) refuses the preconditioner
     /// ([`Error::PreconditionerUnavailable`](crate::Error::PreconditionerUnavailable)).
     /// [`Settings::compiled`] gives the nearest settings a build runs, and
     /// [`Scene::default_settings`](crate::Scene::default_settings) those

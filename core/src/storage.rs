@@ -1,7 +1,8 @@
 //! Where a scene's data lives. The type that owns storage knows the capacity
-//! (`ArrayStorage<N, B, G, L>`, usable in a `static`; `VecStorage`, sized at
-//! run time); everything else works on slices, so the solver is not compiled
-//! once per capacity. Elements are stored in [`ElementBlock`]s of
+//! (`ArrayStorage<C>`, whose [`Capacity`] `C` [`capacity!`](crate::capacity)
+//! declares, usable in a `static`; `VecStorage`, sized at run time);
+//! everything else works on slices, so the solver is not compiled once per
+//! capacity. Elements are stored in [`ElementBlock`]s of
 //! [`ELEMENTS_PER_BLOCK`](crate::ELEMENTS_PER_BLOCK) elements each;
 //! [`element_blocks`](crate::element_blocks) gives how many a mesh needs.
 //!
@@ -12,6 +13,7 @@
 
 use crate::element::ElementBlock;
 use crate::math::Vec3;
+use crate::settings::Preconditioner;
 
 /// Node flag: the node does not move (its velocity change is filtered out).
 pub(crate) const FIXED: u8 = 1;
@@ -184,8 +186,8 @@ impl Default for NodeWork {
 /// (m, from the grabbed nodes' centroid) or a constant external force (N).
 /// A scene keeps each kind in its own list, in node order, one entry per node
 /// whose flag says it has one; the lists' lengths are capacities chosen per
-/// scene (`G` and `L` of [`ArrayStorage`]), so a node costs nothing for what
-/// it does not carry.
+/// scene ([`Slots::grabs`] and [`Slots::loads`]), so a node costs nothing for
+/// what it does not carry.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct NodeEntry {
     /// The node it belongs to.
@@ -248,6 +250,29 @@ impl<'a> Entries<'a> {
 pub(crate) mod sealed {
     use super::{ElementBlock, Node, NodeEntry, NodeWork};
 
+    /// Every slot of a storage that says how much it holds: what
+    /// [`Sealed::parts`] lends.
+    #[derive(Debug)]
+    pub struct Parts<'a> {
+        /// Node slots.
+        pub(crate) nodes: &'a [Node],
+        /// Element blocks.
+        pub(crate) elems: &'a [ElementBlock],
+        /// Slots for the nodes the tool holds.
+        pub(crate) grabs: &'a [NodeEntry],
+        /// Slots for constant external forces.
+        pub(crate) loads: &'a [NodeEntry],
+        /// Node-block preconditioner slots (none, or one per node).
+        #[cfg(feature = "two-level")]
+        pub(crate) blocks: &'a [crate::slots::NodeBlock],
+        /// Aggregate slots of the two-level preconditioner.
+        #[cfg(feature = "two-level")]
+        pub(crate) aggs: &'a [crate::slots::Aggregate],
+        /// Coarse factor slots.
+        #[cfg(feature = "two-level")]
+        pub(crate) coarse: &'a [crate::slots::CoarseBlock],
+    }
+
     /// Every slot of a storage, mutable: what [`Sealed::parts_mut`] lends.
     #[derive(Debug)]
     pub struct PartsMut<'a> {
@@ -280,38 +305,85 @@ pub(crate) mod sealed {
 
     /// Access to a storage's slots.
     pub trait Sealed {
-        /// Node-block, aggregate and coarse-block slots.
-        #[cfg(feature = "two-level")]
-        fn preconditioner_capacity(&self) -> (usize, usize, usize);
-        /// Node and element-block slots.
-        fn parts(&self) -> (&[Node], &[ElementBlock]);
+        /// All slots.
+        fn parts(&self) -> Parts<'_>;
         /// All slots, mutable.
         fn parts_mut(&mut self) -> PartsMut<'_>;
     }
+
+    /// A slot type: what an array of a [`Capacity`](super::Capacity) holds.
+    pub trait Slot: Copy + core::fmt::Debug {
+        /// An unused slot (all zero bits).
+        const EMPTY: Self;
+    }
+
+    /// The sealed part of [`SlotArray`](super::SlotArray): arrays of slots.
+    pub trait Array<T> {}
+
+    impl<T: Slot, const N: usize> Array<T> for [T; N] {}
 }
 
-pub(crate) use sealed::PartsMut;
+pub(crate) use sealed::{Parts, PartsMut};
 
 /// Storage for a scene: the node, solver-scratch, element-block, grab and
-/// load slots. The capacity is the number of slots (times
-/// [`ELEMENTS_PER_BLOCK`](crate::ELEMENTS_PER_BLOCK) for elements).
+/// load slots, and with the feature `two-level` the preconditioners'. The
+/// capacity is the number of slots ([`Storage::capacity`]).
 ///
 /// Sealed: implemented by [`ArrayStorage`] (fixed capacity, `const`),
 /// [`SliceStorage`] (caller-owned slices), `VecStorage` (feature `alloc`)
 /// and `&mut` of any storage.
-pub trait Storage: sealed::Sealed {}
+pub trait Storage: sealed::Sealed {
+    /// What the storage holds: its nodes (at most the 65 536 a scene
+    /// addresses), tetrahedra (whole [`ElementBlock`]s), grab and load
+    /// slots, and the richest preconditioner it has room for, with the
+    /// two-level preconditioner's aggregates. `preconditioner` is what
+    /// [`Scene::supports`](crate::Scene::supports) allows: `BlockJacobi`
+    /// when there is a node-block slot per node slot, `TwoLevel` when there
+    /// are also aggregates and the slots of their coarse solve; `Mass`
+    /// without the feature `two-level`.
+    fn capacity(&self) -> Slots {
+        let p = self.parts();
+        let (preconditioner, aggregates) = preconditioner_room(&p);
+        Slots {
+            nodes: p.nodes.len().min(MAX_NODES),
+            elements: p.elems.len().saturating_mul(crate::lanes::LANES),
+            grabs: p.grabs.len(),
+            loads: p.loads.len(),
+            preconditioner,
+            aggregates,
+        }
+    }
+}
 
 impl<S: sealed::Sealed + ?Sized> Storage for S {}
+
+/// The richest preconditioner `p` has the slots for, and the aggregates it
+/// can use (0 unless that is `TwoLevel`).
+#[inline(always)]
+fn preconditioner_room(p: &Parts<'_>) -> (Preconditioner, usize) {
+    #[cfg(feature = "two-level")]
+    {
+        let aggs = p.aggs.len();
+        if p.blocks.len() < p.nodes.len() {
+            (Preconditioner::Mass, 0)
+        } else if aggs >= 1 && p.coarse.len() >= crate::slots::coarse_blocks_for(aggs) {
+            (Preconditioner::TwoLevel, aggs)
+        } else {
+            (Preconditioner::BlockJacobi, 0)
+        }
+    }
+    #[cfg(not(feature = "two-level"))]
+    {
+        let _ = p;
+        (Preconditioner::Mass, 0)
+    }
+}
 
 /// Borrowed storage: lets the storage live apart from the scene, e.g. an
 /// `ArrayStorage` in a zero-initialised `static` (`.bss`) while the scene
 /// header stays on the stack.
 impl<S: sealed::Sealed + ?Sized> sealed::Sealed for &mut S {
-    #[cfg(feature = "two-level")]
-    fn preconditioner_capacity(&self) -> (usize, usize, usize) {
-        (**self).preconditioner_capacity()
-    }
-    fn parts(&self) -> (&[Node], &[ElementBlock]) {
+    fn parts(&self) -> Parts<'_> {
         (**self).parts()
     }
     fn parts_mut(&mut self) -> PartsMut<'_> {
@@ -319,116 +391,377 @@ impl<S: sealed::Sealed + ?Sized> sealed::Sealed for &mut S {
     }
 }
 
-/// Fixed-capacity storage in plain arrays: up to `N` nodes and `B` element
-/// blocks, that is `B × ELEMENTS_PER_BLOCK` tetrahedra (size `B` with
-/// [`element_blocks`](crate::element_blocks)); up to `G` nodes held by the
-/// tool (feature `tool`) and `L` nodes with a constant external force
-/// (feature `loads`), 16 bytes each; with the feature `two-level`, `P` node
-/// slots of preconditioner data (32 bytes each: `N` of them, or 0 for the
-/// mass preconditioner only), up to `A` aggregates for the two-level
-/// preconditioner's coarse space (176 bytes each) and `C` slots of its
-/// coarse solve (32 bytes each: `n` aggregates use
-/// [`coarse_blocks_for`](crate::coarse_blocks_for)`(n)`, about `4.5 n²`;
-/// 0 for block-Jacobi at most). With constants `A` and `C`, write
-/// `ArrayStorage<N, B, G, L, N, A, { corofem::coarse_blocks_for(A) }>`.
-/// `const fn new` lets a whole scene live in a `static`.
-#[derive(Clone, Debug)]
-pub struct ArrayStorage<
-    const N: usize,
-    const B: usize,
-    const G: usize = 0,
-    const L: usize = 0,
-    const P: usize = 0,
-    const A: usize = 0,
-    const C: usize = 0,
-> {
-    nodes: [Node; N],
-    work: [NodeWork; N],
-    elems: [ElementBlock; B],
-    grabs: [NodeEntry; G],
-    loads: [NodeEntry; L],
-    #[cfg(feature = "two-level")]
-    blocks: [crate::slots::NodeBlock; P],
-    #[cfg(feature = "two-level")]
-    aggs: [crate::slots::Aggregate; A],
-    #[cfg(feature = "two-level")]
-    coarse: [crate::slots::CoarseBlock; C],
+/// A storage's capacity in numbers: how many slots of each kind it has.
+/// [`capacity!`](crate::capacity) declares one for an [`ArrayStorage`]
+/// ([`Capacity::SLOTS`]), and [`Storage::capacity`] (or
+/// [`Scene::capacity`](crate::Scene::capacity)) reports what any storage
+/// holds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Slots {
+    /// Nodes (a scene addresses at most 65 536), 44 bytes each, and their
+    /// solver scratch ([`NodeWork`]).
+    pub nodes: usize,
+    /// Tetrahedra. They are stored in [`ElementBlock`]s of
+    /// [`ELEMENTS_PER_BLOCK`](crate::ELEMENTS_PER_BLOCK) each
+    /// ([`Slots::element_blocks`]), so a storage reports whole blocks.
+    pub elements: usize,
+    /// Nodes the haptic tool can hold at once (feature `tool`), 16 bytes
+    /// each.
+    pub grabs: usize,
+    /// Nodes that can carry a constant external force at once (feature
+    /// `loads`), 16 bytes each.
+    pub loads: usize,
+    /// The richest preconditioner the storage has the slots for: `Mass`
+    /// needs none, `BlockJacobi` a node block per node (32 bytes each,
+    /// [`Slots::node_blocks`]), `TwoLevel` node blocks and `aggregates`.
+    /// Its slots exist only with the feature `two-level`: without it a
+    /// storage holds none and reports `Mass`.
+    pub preconditioner: Preconditioner,
+    /// Aggregates of the two-level preconditioner's coarse space, 176 bytes
+    /// each, plus the slots of its coarse solve ([`Slots::coarse_blocks`]):
+    /// at least one with `TwoLevel`, none otherwise. A scene uses
+    /// [`aggregates_for`](crate::aggregates_for)`(free nodes, aggregates)`
+    /// of them.
+    pub aggregates: usize,
 }
 
-impl<
-        const N: usize,
-        const B: usize,
-        const G: usize,
-        const L: usize,
-        const P: usize,
-        const A: usize,
-        const C: usize,
-    > ArrayStorage<N, B, G, L, P, A, C>
-{
-    /// Empty storage.
+impl Slots {
+    /// No slot of any kind, and the lumped mass: what
+    /// [`capacity!`](crate::capacity) starts from.
+    pub const NONE: Self = Self {
+        nodes: 0,
+        elements: 0,
+        grabs: 0,
+        loads: 0,
+        preconditioner: Preconditioner::Mass,
+        aggregates: 0,
+    };
+
+    /// The element blocks that hold `elements` tetrahedra:
+    /// [`element_blocks`](crate::element_blocks)`(elements)`.
+    #[must_use]
+    pub const fn element_blocks(self) -> usize {
+        crate::element_blocks(self.elements)
+    }
+
+    /// The node-block preconditioner's slots (feature `two-level`): one per
+    /// node for `BlockJacobi` and `TwoLevel`, none for `Mass`.
+    #[cfg(feature = "two-level")]
+    #[must_use]
+    pub const fn node_blocks(self) -> usize {
+        match self.preconditioner {
+            Preconditioner::Mass => 0,
+            Preconditioner::BlockJacobi | Preconditioner::TwoLevel => self.nodes,
+        }
+    }
+
+    /// The slots of the coarse solve of `aggregates` aggregates (feature
+    /// `two-level`), 32 bytes each:
+    /// [`coarse_blocks_for`](crate::coarse_blocks_for)`(aggregates)`, about
+    /// `4.5 aggregates²`.
+    #[cfg(feature = "two-level")]
+    #[must_use]
+    pub const fn coarse_blocks(self) -> usize {
+        crate::slots::coarse_blocks_for(self.aggregates)
+    }
+}
+
+/// An array of slots, `[T; N]`: the form of every slot list of a
+/// [`Capacity`]. Sealed: implemented for arrays of the slot types
+/// ([`Node`], [`NodeWork`], [`ElementBlock`], [`NodeEntry`] and the
+/// preconditioners') only.
+pub trait SlotArray<T>: sealed::Array<T> {
+    /// The number of slots, `N`.
+    const LEN: usize;
+    /// Every slot unused: all zero bits.
+    const EMPTY: Self;
+    /// The slots.
+    fn as_slice(&self) -> &[T];
+    /// The slots, mutable.
+    fn as_mut_slice(&mut self) -> &mut [T];
+}
+
+impl<T: sealed::Slot, const N: usize> SlotArray<T> for [T; N] {
+    const LEN: usize = N;
+    const EMPTY: Self = [T::EMPTY; N];
+    #[inline(always)]
+    fn as_slice(&self) -> &[T] {
+        self
+    }
+    #[inline(always)]
+    fn as_mut_slice(&mut self) -> &mut [T] {
+        self
+    }
+}
+
+/// Implements [`sealed::Slot`] for slot types, with their `EMPTY`.
+macro_rules! slot {
+    ($($t:ty),*) => {
+        $(impl sealed::Slot for $t {
+            const EMPTY: Self = <$t>::EMPTY;
+        })*
+    };
+}
+slot!(Node, NodeWork, ElementBlock, NodeEntry);
+#[cfg(feature = "two-level")]
+slot!(
+    crate::slots::NodeBlock,
+    crate::slots::Aggregate,
+    crate::slots::CoarseBlock
+);
+
+/// The capacity of an [`ArrayStorage`], as a type: its numbers
+/// ([`Capacity::SLOTS`]) and the arrays that hold them. Declare one with
+/// [`capacity!`](crate::capacity), which derives every array from the
+/// numbers.
+///
+/// An implementation written by hand gives arrays of exactly the lengths
+/// that `SLOTS` asks for (the ones documented on each type), and `SLOTS`
+/// asks for aggregates with `TwoLevel` and only then: [`ArrayStorage::new`]
+/// checks both at compile time, so an implementation that breaks them does
+/// not compile, and neither does a declaration that does:
+///
+/// ```compile_fail
+/// use corofem::StaticScene;
+/// // Aggregates without `preconditioner: Preconditioner::TwoLevel`.
+/// corofem::capacity! { struct Odd { nodes: 8, elements: 4, aggregates: 2 } }
+/// let scene = StaticScene::<Odd>::new();
+/// ```
+pub trait Capacity {
+    /// What a storage of this capacity holds (in a build without the
+    /// feature `two-level`, no preconditioner slots whatever
+    /// `SLOTS.preconditioner` says).
+    const SLOTS: Slots;
+    /// Node slots: `[Node; SLOTS.nodes]`.
+    type Nodes: SlotArray<Node>;
+    /// Solver scratch, one per node slot: `[NodeWork; SLOTS.nodes]`.
+    type Work: SlotArray<NodeWork>;
+    /// Element blocks: `[ElementBlock; SLOTS.element_blocks()]`.
+    type ElementBlocks: SlotArray<ElementBlock>;
+    /// Slots for the nodes the tool holds: `[NodeEntry; SLOTS.grabs]`.
+    type Grabs: SlotArray<NodeEntry>;
+    /// Slots for constant external forces: `[NodeEntry; SLOTS.loads]`.
+    type Loads: SlotArray<NodeEntry>;
+    /// Node-block preconditioner slots (feature `two-level`):
+    /// `[NodeBlock; SLOTS.node_blocks()]`.
+    #[cfg(feature = "two-level")]
+    type NodeBlocks: SlotArray<crate::slots::NodeBlock>;
+    /// Aggregate slots of the two-level preconditioner (feature
+    /// `two-level`): `[Aggregate; SLOTS.aggregates]`.
+    #[cfg(feature = "two-level")]
+    type Aggregates: SlotArray<crate::slots::Aggregate>;
+    /// Slots of its coarse solve (feature `two-level`):
+    /// `[CoarseBlock; SLOTS.coarse_blocks()]`.
+    #[cfg(feature = "two-level")]
+    type CoarseBlocks: SlotArray<crate::slots::CoarseBlock>;
+}
+
+/// Declares a storage capacity: a unit struct that implements [`Capacity`]
+/// (and derives `Clone`, `Copy`, `Debug`, `Default`, `PartialEq`, `Eq` and
+/// `Hash`), for an [`ArrayStorage`] or a [`StaticScene`](crate::StaticScene).
+///
+/// The fields are those of [`Slots`], as constant expressions: `nodes` and
+/// `elements` (tetrahedra) first, then any of `grabs`, `loads`,
+/// `preconditioner` and `aggregates`, each 0 (or `Mass`) when left out. The
+/// macro derives the rest: the element blocks for `elements` tetrahedra on
+/// this target, and for a `preconditioner` other than `Mass` a node block
+/// per node and the coarse solve's slots of `aggregates`
+/// ([`Slots::node_blocks`], [`Slots::coarse_blocks`]).
+///
+/// ```
+/// use corofem::{Capacity, Preconditioner, Slots, StaticScene, Storage};
+///
+/// corofem::capacity! {
+///     /// A 10×2×2-cell beam, 3 of its nodes held by the tool, with the
+///     /// two-level preconditioner's slots for 8 aggregates.
+///     pub struct Beam {
+///         nodes: 99,
+///         elements: 240,
+///         grabs: 3,
+///         preconditioner: Preconditioner::TwoLevel,
+///         aggregates: 8,
+///     }
+/// }
+///
+/// static mut SCENE: StaticScene<Beam> = StaticScene::new(); // zero bits: .bss
+/// let scene = StaticScene::<Beam>::new();
+/// // The mesh's arrays, sized by the same numbers.
+/// let nodes = [[0.0f32; 3]; Beam::SLOTS.nodes];
+/// # let _ = nodes;
+/// # #[cfg(feature = "two-level")]
+/// assert_eq!(scene.capacity(), Slots { elements: 240, loads: 0, ..Beam::SLOTS });
+/// ```
+#[macro_export]
+macro_rules! capacity {
+    (
+        $(#[$attr:meta])*
+        $vis:vis struct $name:ident {
+            nodes: $nodes:expr,
+            elements: $elements:expr
+            $(, $key:ident: $value:expr)* $(,)?
+        }
+    ) => {
+        $(#[$attr])*
+        #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+        $vis struct $name;
+
+        impl $crate::Capacity for $name {
+            // All the fields may be given: the update is then a no-op.
+            #[allow(clippy::needless_update)]
+            const SLOTS: $crate::Slots = $crate::Slots {
+                nodes: $nodes,
+                elements: $elements,
+                $($key: $value,)*
+                ..$crate::Slots::NONE
+            };
+            type Nodes = [$crate::Node; <Self as $crate::Capacity>::SLOTS.nodes];
+            type Work = [$crate::NodeWork; <Self as $crate::Capacity>::SLOTS.nodes];
+            type ElementBlocks =
+                [$crate::ElementBlock; <Self as $crate::Capacity>::SLOTS.element_blocks()];
+            type Grabs = [$crate::NodeEntry; <Self as $crate::Capacity>::SLOTS.grabs];
+            type Loads = [$crate::NodeEntry; <Self as $crate::Capacity>::SLOTS.loads];
+            $crate::__capacity_two_level! {
+                type NodeBlocks =
+                    [$crate::NodeBlock; <Self as $crate::Capacity>::SLOTS.node_blocks()];
+                type Aggregates =
+                    [$crate::Aggregate; <Self as $crate::Capacity>::SLOTS.aggregates];
+                type CoarseBlocks =
+                    [$crate::CoarseBlock; <Self as $crate::Capacity>::SLOTS.coarse_blocks()];
+            }
+        }
+    };
+}
+
+/// The items it is given where the feature `two-level` is on: what
+/// [`capacity!`] writes for the preconditioners' slots.
+#[cfg(feature = "two-level")]
+#[doc(hidden)]
+#[macro_export]
+macro_rules! __capacity_two_level {
+    ($($item:tt)*) => { $($item)* };
+}
+
+/// Nothing: the feature `two-level` is off, so there are no
+/// preconditioner slots.
+#[cfg(not(feature = "two-level"))]
+#[doc(hidden)]
+#[macro_export]
+macro_rules! __capacity_two_level {
+    ($($item:tt)*) => {};
+}
+
+/// Fixed-capacity storage in plain arrays, as the [`Capacity`] `C` declares
+/// them ([`capacity!`](crate::capacity)): up to `C::SLOTS.nodes` nodes and
+/// `C::SLOTS.elements` tetrahedra, `C::SLOTS.grabs` nodes held by the tool
+/// (feature `tool`) and `C::SLOTS.loads` nodes with a constant external
+/// force (feature `loads`), and with the feature `two-level` the slots of
+/// `C::SLOTS.preconditioner` ([`Slots`]). `const fn new` is all zero bits,
+/// so a whole scene can live in a `static` in `.bss`.
+#[derive(Clone, Debug)]
+pub struct ArrayStorage<C: Capacity> {
+    nodes: C::Nodes,
+    work: C::Work,
+    elems: C::ElementBlocks,
+    grabs: C::Grabs,
+    loads: C::Loads,
+    #[cfg(feature = "two-level")]
+    blocks: C::NodeBlocks,
+    #[cfg(feature = "two-level")]
+    aggs: C::Aggregates,
+    #[cfg(feature = "two-level")]
+    coarse: C::CoarseBlocks,
+}
+
+impl<C: Capacity> ArrayStorage<C> {
+    /// `C`'s arrays have the lengths `C::SLOTS` asks for, and `C::SLOTS`
+    /// asks for aggregates exactly with `TwoLevel`: evaluated by
+    /// [`ArrayStorage::new`], so a capacity that breaks it does not compile.
+    const CHECK: () = {
+        let s = C::SLOTS;
+        assert!(
+            matches!(s.preconditioner, Preconditioner::TwoLevel) == (s.aggregates > 0),
+            "capacity: `aggregates` (at least 1) goes with `preconditioner: Preconditioner::TwoLevel`, and only with it"
+        );
+        assert!(
+            <C::Nodes as SlotArray<Node>>::LEN == s.nodes
+                && <C::Work as SlotArray<NodeWork>>::LEN == s.nodes,
+            "capacity: `Nodes` and `Work` are `SLOTS.nodes` long"
+        );
+        assert!(
+            <C::ElementBlocks as SlotArray<ElementBlock>>::LEN == s.element_blocks(),
+            "capacity: `ElementBlocks` is `SLOTS.element_blocks()` long"
+        );
+        assert!(
+            <C::Grabs as SlotArray<NodeEntry>>::LEN == s.grabs
+                && <C::Loads as SlotArray<NodeEntry>>::LEN == s.loads,
+            "capacity: `Grabs` and `Loads` are `SLOTS.grabs` and `SLOTS.loads` long"
+        );
+        #[cfg(feature = "two-level")]
+        assert!(
+            <C::NodeBlocks as SlotArray<crate::slots::NodeBlock>>::LEN == s.node_blocks()
+                && <C::Aggregates as SlotArray<crate::slots::Aggregate>>::LEN == s.aggregates
+                && <C::CoarseBlocks as SlotArray<crate::slots::CoarseBlock>>::LEN
+                    == s.coarse_blocks(),
+            "capacity: the preconditioner's arrays are `SLOTS.node_blocks()`, `SLOTS.aggregates` and `SLOTS.coarse_blocks()` long"
+        );
+    };
+
+    /// Empty storage: every slot unused, all zero bits.
     #[must_use]
     pub const fn new() -> Self {
+        #[allow(clippy::let_unit_value)]
+        let () = Self::CHECK;
         Self {
-            nodes: [Node::EMPTY; N],
-            work: [NodeWork::EMPTY; N],
-            elems: [ElementBlock::EMPTY; B],
-            grabs: [NodeEntry::EMPTY; G],
-            loads: [NodeEntry::EMPTY; L],
+            nodes: SlotArray::EMPTY,
+            work: SlotArray::EMPTY,
+            elems: SlotArray::EMPTY,
+            grabs: SlotArray::EMPTY,
+            loads: SlotArray::EMPTY,
             #[cfg(feature = "two-level")]
-            blocks: [crate::slots::NodeBlock::EMPTY; P],
+            blocks: SlotArray::EMPTY,
             #[cfg(feature = "two-level")]
-            aggs: [crate::slots::Aggregate::EMPTY; A],
+            aggs: SlotArray::EMPTY,
             #[cfg(feature = "two-level")]
-            coarse: [crate::slots::CoarseBlock::EMPTY; C],
+            coarse: SlotArray::EMPTY,
         }
     }
 }
 
-impl<
-        const N: usize,
-        const B: usize,
-        const G: usize,
-        const L: usize,
-        const P: usize,
-        const A: usize,
-        const C: usize,
-    > Default for ArrayStorage<N, B, G, L, P, A, C>
-{
+impl<C: Capacity> Default for ArrayStorage<C> {
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl<
-        const N: usize,
-        const B: usize,
-        const G: usize,
-        const L: usize,
-        const P: usize,
-        const A: usize,
-        const C: usize,
-    > sealed::Sealed for ArrayStorage<N, B, G, L, P, A, C>
-{
-    #[cfg(feature = "two-level")]
-    fn preconditioner_capacity(&self) -> (usize, usize, usize) {
-        (P, A, C)
-    }
-    fn parts(&self) -> (&[Node], &[ElementBlock]) {
-        (&self.nodes, &self.elems)
+impl<C: Capacity> sealed::Sealed for ArrayStorage<C> {
+    fn parts(&self) -> Parts<'_> {
+        Parts {
+            nodes: self.nodes.as_slice(),
+            elems: self.elems.as_slice(),
+            grabs: self.grabs.as_slice(),
+            loads: self.loads.as_slice(),
+            #[cfg(feature = "two-level")]
+            blocks: self.blocks.as_slice(),
+            #[cfg(feature = "two-level")]
+            aggs: self.aggs.as_slice(),
+            #[cfg(feature = "two-level")]
+            coarse: self.coarse.as_slice(),
+        }
     }
     fn parts_mut(&mut self) -> PartsMut<'_> {
         PartsMut {
-            nodes: &mut self.nodes,
-            work: &mut self.work,
-            elems: &mut self.elems,
-            grabs: &mut self.grabs,
-            loads: &mut self.loads,
+            nodes: self.nodes.as_mut_slice(),
+            work: self.work.as_mut_slice(),
+            elems: self.elems.as_mut_slice(),
+            grabs: self.grabs.as_mut_slice(),
+            loads: self.loads.as_mut_slice(),
             #[cfg(feature = "two-level")]
-            blocks: &mut self.blocks,
+            blocks: self.blocks.as_mut_slice(),
             #[cfg(feature = "two-level")]
-            aggs: &mut self.aggs,
+            aggs: self.aggs.as_mut_slice(),
             #[cfg(feature = "two-level")]
-            coarse: &mut self.coarse,
+            coarse: self.coarse.as_mut_slice(),
         }
     }
 }
@@ -514,12 +847,19 @@ impl<'a> SliceStorage<'a> {
 }
 
 impl sealed::Sealed for SliceStorage<'_> {
-    #[cfg(feature = "two-level")]
-    fn preconditioner_capacity(&self) -> (usize, usize, usize) {
-        (self.blocks.len(), self.aggs.len(), self.coarse.len())
-    }
-    fn parts(&self) -> (&[Node], &[ElementBlock]) {
-        (self.nodes, self.elems)
+    fn parts(&self) -> Parts<'_> {
+        Parts {
+            nodes: self.nodes,
+            elems: self.elems,
+            grabs: self.grabs,
+            loads: self.loads,
+            #[cfg(feature = "two-level")]
+            blocks: self.blocks,
+            #[cfg(feature = "two-level")]
+            aggs: self.aggs,
+            #[cfg(feature = "two-level")]
+            coarse: self.coarse,
+        }
     }
     fn parts_mut(&mut self) -> PartsMut<'_> {
         PartsMut {
@@ -626,12 +966,19 @@ fn slots<T: Copy>(n: usize, value: T) -> alloc::vec::Vec<T> {
 
 #[cfg(feature = "alloc")]
 impl sealed::Sealed for VecStorage {
-    #[cfg(feature = "two-level")]
-    fn preconditioner_capacity(&self) -> (usize, usize, usize) {
-        (self.blocks.len(), self.aggs.len(), self.coarse.len())
-    }
-    fn parts(&self) -> (&[Node], &[ElementBlock]) {
-        (&self.nodes, &self.elems)
+    fn parts(&self) -> Parts<'_> {
+        Parts {
+            nodes: &self.nodes,
+            elems: &self.elems,
+            grabs: &self.grabs,
+            loads: &self.loads,
+            #[cfg(feature = "two-level")]
+            blocks: &self.blocks,
+            #[cfg(feature = "two-level")]
+            aggs: &self.aggs,
+            #[cfg(feature = "two-level")]
+            coarse: &self.coarse,
+        }
     }
     fn parts_mut(&mut self) -> PartsMut<'_> {
         PartsMut {
@@ -679,5 +1026,92 @@ mod tests {
         let friction = if cfg!(feature = "friction") { 24 } else { 0 };
         assert_eq!(core::mem::size_of::<NodeWork>(), 52 + ground + friction);
         assert_eq!(core::mem::size_of::<NodeEntry>(), 16);
+    }
+
+    crate::capacity! {
+        /// Every kind of slot, the preconditioner's included.
+        struct Full {
+            nodes: 27,
+            elements: 45,
+            grabs: 3,
+            loads: 2,
+            preconditioner: Preconditioner::TwoLevel,
+            aggregates: 2,
+        }
+    }
+
+    crate::capacity! {
+        /// Nodes and elements only.
+        struct Bare { nodes: 5, elements: 2 }
+    }
+
+    /// An array storage is its arrays, no byte more, and each is as long as
+    /// its capacity's numbers say.
+    #[test]
+    fn an_array_storage_holds_what_its_capacity_declares() {
+        use core::mem::size_of;
+        let s = Full::SLOTS;
+        let blocks = crate::element_blocks(45);
+        assert_eq!(s.element_blocks(), blocks);
+        #[cfg(feature = "two-level")]
+        let preconditioner = {
+            use crate::slots::{coarse_blocks_for, Aggregate, CoarseBlock, NodeBlock};
+            assert_eq!(
+                (s.node_blocks(), s.coarse_blocks()),
+                (27, coarse_blocks_for(2))
+            );
+            27 * size_of::<NodeBlock>()
+                + 2 * size_of::<Aggregate>()
+                + coarse_blocks_for(2) * size_of::<CoarseBlock>()
+        };
+        #[cfg(not(feature = "two-level"))]
+        let preconditioner = 0;
+        let bytes = 27 * (size_of::<Node>() + size_of::<NodeWork>())
+            + blocks * size_of::<ElementBlock>()
+            + 5 * size_of::<NodeEntry>()
+            + preconditioner;
+        assert_eq!(size_of::<ArrayStorage<Full>>(), bytes);
+        let full = ArrayStorage::<Full>::new();
+        let want = Slots {
+            elements: blocks * crate::ELEMENTS_PER_BLOCK,
+            ..Full::SLOTS
+        };
+        #[cfg(not(feature = "two-level"))]
+        let want = Slots {
+            preconditioner: Preconditioner::Mass,
+            aggregates: 0,
+            ..want
+        };
+        assert_eq!(full.capacity(), want);
+        let bare = ArrayStorage::<Bare>::new();
+        assert_eq!(bare.capacity().preconditioner, Preconditioner::Mass);
+        assert_eq!((bare.capacity().grabs, bare.capacity().loads), (0, 0));
+    }
+
+    /// A storage reports the richest preconditioner whose slots it has
+    /// all of: node blocks for every node slot, then aggregates with the
+    /// whole of their coarse solve.
+    #[cfg(feature = "two-level")]
+    #[test]
+    fn a_storage_reports_the_preconditioner_it_has_every_slot_for() {
+        use crate::slots::{coarse_blocks_for, Aggregate, CoarseBlock, NodeBlock};
+        let (mut nodes, mut work) = ([Node::EMPTY; 4], [NodeWork::EMPTY; 4]);
+        let mut elems = [ElementBlock::EMPTY; 1];
+        let mut blocks = [NodeBlock::EMPTY; 4];
+        let mut aggs = [Aggregate::EMPTY; 2];
+        let mut coarse = [CoarseBlock::EMPTY; coarse_blocks_for(2)];
+        let mut room = |b: usize, c: usize| {
+            let s = SliceStorage::new(&mut nodes, &mut work, &mut elems).with_preconditioner(
+                &mut blocks[..b],
+                &mut aggs,
+                &mut coarse[..c],
+            );
+            let cap = s.capacity();
+            (cap.preconditioner, cap.aggregates)
+        };
+        let all = coarse_blocks_for(2);
+        assert_eq!(room(4, all), (Preconditioner::TwoLevel, 2));
+        assert_eq!(room(4, all - 1), (Preconditioner::BlockJacobi, 0));
+        assert_eq!(room(3, all), (Preconditioner::Mass, 0));
     }
 }

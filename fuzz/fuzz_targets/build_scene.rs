@@ -18,7 +18,11 @@ const N: usize = 16;
 const T: usize = corofem::element_blocks(12) * corofem::ELEMENTS_PER_BLOCK;
 /// Grab and load slots: fewer than the nodes, so that full lists are fuzzed too.
 const SLOTS: usize = 4;
-type Small = StaticScene<N, { corofem::element_blocks(T) }, SLOTS, SLOTS>;
+corofem::capacity! {
+    /// The fuzzed scene's room.
+    struct SmallSlots { nodes: N, elements: T, grabs: SLOTS, loads: SLOTS }
+}
+type Small = StaticScene<SmallSlots>;
 
 fuzz_target!(|data: &[u8]| {
     let _ = run(&mut Unstructured::new(data));

@@ -7,8 +7,12 @@ use corofem::{
 };
 use corofem_host_tests::box_mesh;
 
-// A grab and a load slot for every node.
-type Small = StaticScene<64, { corofem::element_blocks(128) }, 64, 64>;
+corofem::capacity! {
+    /// A grab and a load slot for every node.
+    struct SmallSlots { nodes: 64, elements: 128, grabs: 64, loads: 64 }
+}
+/// The scene of the tests.
+type Small = StaticScene<SmallSlots>;
 
 /// A built, stepped scene and a fingerprint of everything observable.
 fn scene() -> Small {

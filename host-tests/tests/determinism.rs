@@ -8,6 +8,11 @@ use corofem::{
     StaticScene,
 };
 
+corofem::capacity! {
+    /// One tetrahedron's room.
+    struct Tet { nodes: 4, elements: 1 }
+}
+
 /// A beam held at one end, pulled by the tool, touching the ground, with
 /// damping and warm start on: every part of the step runs.
 pub fn reference_run(method: Method) -> u64 {
@@ -24,9 +29,11 @@ fn run(method: Method, isa: InstructionSet) -> u64 {
     let mut nodes = [[0.0f32; 3]; 99];
     let mut tets = [[0u32; 4]; 240];
     mesh.generate(&mut nodes, &mut tets).unwrap();
-    // Grab slots for every node: the tool holds the beam's end face.
-    let mut s: Box<StaticScene<99, { corofem::element_blocks(240) }, 99>> =
-        Box::new(StaticScene::new());
+    corofem::capacity! {
+        /// Grab slots for every node: the tool holds the beam's end face.
+        struct Beam { nodes: 99, elements: 240, grabs: 99 }
+    }
+    let mut s: Box<StaticScene<Beam>> = Box::new(StaticScene::new());
     s.build(
         &nodes,
         &tets,
@@ -90,7 +97,7 @@ fn fast_step_has_the_bits_of_the_baseline() {
     if std::is_x86_feature_detected!("avx2") {
         assert_eq!(best, InstructionSet::Avx2);
     }
-    let scene: StaticScene<4, 1> = StaticScene::new();
+    let scene = StaticScene::<Tet>::new();
     assert_eq!(scene.instruction_set(), best);
     for &m in Method::COMPILED {
         for &isa in InstructionSet::ALL.iter().filter(|i| i.is_supported()) {
@@ -103,7 +110,7 @@ fn fast_step_has_the_bits_of_the_baseline() {
 /// scene keeps the one it had.
 #[test]
 fn unsupported_instruction_set_is_refused() {
-    let mut scene: StaticScene<4, 1> = StaticScene::new();
+    let mut scene = StaticScene::<Tet>::new();
     scene
         .set_instruction_set(Some(InstructionSet::Baseline))
         .unwrap();

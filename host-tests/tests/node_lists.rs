@@ -1,14 +1,22 @@
 //! The lists of what only some nodes carry — the tool's grab offsets and the
-//! constant loads — are fixed-capacity slots of the storage (`G` and `L` of
-//! `ArrayStorage`). Full slots refuse one node more with a typed error and
+//! constant loads — are fixed-capacity slots of the storage (`grabs` and
+//! `loads` of its capacity). Full slots refuse one node more with a typed error and
 //! change nothing; the order in which forces are set, replaced and removed
 //! does not change the results.
 
 use corofem::{Error, Scene, StaticScene, StepStats, Storage};
 use corofem_host_tests::build_box;
 
-/// 2 grab slots and 2 load slots.
-type Tight = StaticScene<64, { corofem::element_blocks(128) }, 2, 2>;
+corofem::capacity! {
+    /// 2 grab slots and 2 load slots.
+    struct TightSlots { nodes: 64, elements: 128, grabs: 2, loads: 2 }
+}
+corofem::capacity! {
+    /// No grab or load slot.
+    struct NoSlots { nodes: 64, elements: 128 }
+}
+/// The scene with 2 grab and 2 load slots.
+type Tight = StaticScene<TightSlots>;
 
 /// Forces of the tests (N).
 const F3: [f32; 3] = [0.0, 0.0, -2.0];
@@ -118,7 +126,7 @@ fn forces_give_the_same_bits_whatever_order_they_are_set_in() {
 
 #[test]
 fn a_scene_without_slots_refuses_every_grab_and_load() {
-    let mut s = StaticScene::<64, { corofem::element_blocks(128) }>::new();
+    let mut s = StaticScene::<NoSlots>::new();
     build(&mut s);
     assert_eq!(
         s.grab(&[3], 10.0),

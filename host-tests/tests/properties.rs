@@ -341,8 +341,13 @@ const CAP_N: usize = 12;
 /// Element capacity of the build property's scene.
 /// Ten elements, rounded up to whole blocks (16 on x86_64, 10 with one lane).
 const CAP_T: usize = corofem::element_blocks(10) * corofem::ELEMENTS_PER_BLOCK;
-// A grab and a load slot for every node: any node may be grabbed or loaded.
-type BuildScene = StaticScene<CAP_N, { corofem::element_blocks(CAP_T) }, CAP_N, CAP_N>;
+corofem::capacity! {
+    /// A grab and a load slot for every node: any node may be grabbed or
+    /// loaded.
+    struct BuildSlots { nodes: CAP_N, elements: CAP_T, grabs: CAP_N, loads: CAP_N }
+}
+/// The build property's scene.
+type BuildScene = StaticScene<BuildSlots>;
 
 /// A "node soup": nodes from [`node_recipe`] and tetrahedra on random indices.
 fn soup_case() -> impl Strategy<Value = BuildCase> {

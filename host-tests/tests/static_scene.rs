@@ -6,11 +6,15 @@
 
 use std::sync::Mutex;
 
-use corofem::{Error, Preconditioner, Settings, StaticScene};
+use corofem::{Capacity, Error, Preconditioner, Settings, Slots, StaticScene};
 use corofem_host_tests::build_box;
 
-/// A 2×2×2-cell block (27 nodes, 48 tetrahedra), 4 grab slots.
-type Block = StaticScene<27, { corofem::element_blocks(48) }, 4>;
+corofem::capacity! {
+    /// A 2×2×2-cell block (27 nodes, 48 tetrahedra), 4 grab slots.
+    struct BlockSlots { nodes: 27, elements: 48, grabs: 4 }
+}
+/// The block's scene.
+type Block = StaticScene<BlockSlots>;
 
 static SCENE: Mutex<Block> = Mutex::new(Block::new());
 
@@ -22,6 +26,23 @@ fn build(s: &mut Block) {
         .collect();
     assert_eq!(face.len(), 9);
     s.fix_nodes(&face).unwrap();
+}
+
+#[test]
+fn a_static_scene_holds_what_its_capacity_declares() {
+    let scene = SCENE.lock().unwrap();
+    // Whole element blocks: 48 rounded up to a multiple of the lanes.
+    let elements = corofem::element_blocks(48) * corofem::ELEMENTS_PER_BLOCK;
+    let want = Slots {
+        elements,
+        ..BlockSlots::SLOTS
+    };
+    assert_eq!(scene.capacity(), want);
+    assert_eq!(
+        (scene.node_capacity(), scene.element_capacity()),
+        (27, elements)
+    );
+    assert!(!scene.supports(Preconditioner::BlockJacobi));
 }
 
 #[test]

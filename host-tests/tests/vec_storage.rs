@@ -4,7 +4,7 @@
 //! fixed-capacity scene, and a size that cannot be had is a build error,
 //! never a panic.
 
-use corofem::{Error, StaticScene, VecScene, VecStorage};
+use corofem::{Error, Preconditioner, Slots, StaticScene, VecScene, VecStorage};
 use corofem_host_tests::{box_mesh, build_box};
 
 /// A 3×2×2-cell box: 36 nodes, 72 tetrahedra.
@@ -18,6 +18,19 @@ fn a_vec_scene_holds_what_it_was_sized_for() {
     let mut s = VecScene::with_capacity(n, t);
     assert_eq!(s.node_capacity(), n);
     assert!(s.element_capacity() >= t);
+    // A grab and a load slot per node, and the two-level preconditioner
+    // with as many aggregates as it takes for that many free nodes.
+    assert_eq!(
+        s.capacity(),
+        Slots {
+            nodes: n,
+            elements: s.element_capacity(),
+            grabs: n,
+            loads: n,
+            preconditioner: Preconditioner::TwoLevel,
+            aggregates: corofem::aggregates_for(n, corofem::MAX_AGGREGATES),
+        }
+    );
     build_box(&mut s, SIZE, CELLS);
     assert_eq!((s.node_count(), s.element_count()), (n, t));
     // Every node has a grab and a load slot.
@@ -42,7 +55,11 @@ fn a_vec_scene_holds_what_it_was_sized_for() {
 #[test]
 fn a_vec_scene_has_the_bits_of_a_static_one() {
     let mut heap = VecScene::with_capacity(36, 72);
-    let mut fixed = Box::new(StaticScene::<36, { corofem::element_blocks(72) }>::new());
+    corofem::capacity! {
+        /// Room for exactly the box.
+        struct BoxSlots { nodes: 36, elements: 72 }
+    }
+    let mut fixed = Box::new(StaticScene::<BoxSlots>::new());
     build_box(&mut heap, SIZE, CELLS);
     build_box(&mut *fixed, SIZE, CELLS);
     heap.fix_nodes(&[0, 4, 8]).unwrap();

@@ -143,11 +143,12 @@ impl Default for ElementBlock {
     }
 }
 
-/// Blocks needed for `elements` elements: the second parameter of
-/// [`ArrayStorage`](crate::ArrayStorage) and the length of the element slice
-/// of [`SliceStorage`](crate::SliceStorage). It depends on the target
-/// ([`ELEMENTS_PER_BLOCK`](crate::ELEMENTS_PER_BLOCK)), so size storage with
-/// it, e.g. `StaticScene<99, { corofem::element_blocks(240) }>`.
+/// Blocks needed for `elements` elements: the length of the element slice
+/// of [`SliceStorage`](crate::SliceStorage) (an
+/// [`ArrayStorage`](crate::ArrayStorage)'s [`capacity!`](crate::capacity)
+/// takes the element count and sizes its blocks with it). It depends on the
+/// target ([`ELEMENTS_PER_BLOCK`](crate::ELEMENTS_PER_BLOCK)), so size
+/// storage with it.
 #[must_use]
 pub const fn element_blocks(elements: usize) -> usize {
     elements.div_ceil(LANES)

@@ -16,7 +16,9 @@ use crate::material::{
 use crate::math::{add, det3, is_finite3, sub, Vec3};
 use crate::settings::{Preconditioner, Settings, StepStats};
 use crate::state::{Header, IsaChoice, Lists, PreSlots, View};
-use crate::storage::{ArrayStorage, Node, NodeWork, PartsMut, Storage, FIXED, MAX_NODES};
+use crate::storage::{
+    ArrayStorage, Capacity, Node, NodeWork, PartsMut, Slots, Storage, FIXED, MAX_NODES,
+};
 #[cfg(feature = "tool")]
 use crate::tool::ToolState;
 use crate::InstructionSet;
@@ -54,8 +56,9 @@ pub struct BuildOptions {
 /// use corofem::{BuildOptions, Material, StaticScene};
 /// let nodes = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
 /// let tets = [[0, 1, 2, 3]];
-/// // Capacity: 4 nodes and the element blocks one tetrahedron needs.
-/// let mut scene: StaticScene<4, { corofem::element_blocks(1) }> = StaticScene::new();
+/// // Capacity: 4 nodes and one tetrahedron.
+/// corofem::capacity! { struct Tet { nodes: 4, elements: 1 } }
+/// let mut scene = StaticScene::<Tet>::new();
 /// scene.build(&nodes, &tets, &Material::default(), BuildOptions::default()).unwrap();
 /// scene.fix_nodes(&[0, 1, 2]).unwrap();
 /// let stats = scene.step().unwrap();
@@ -68,24 +71,14 @@ pub struct Scene<S: Storage> {
     pub(crate) store: S,
 }
 
-/// A scene in fixed-capacity arrays: up to `N` nodes (at most 65 536) and
-/// `B` element blocks, that is `B × ELEMENTS_PER_BLOCK` tetrahedra; write
-/// `StaticScene<N, { corofem::element_blocks(T) }>` for `T` tetrahedra.
-/// `G` nodes can be held by the tool and `L` nodes carry a constant external
-/// force (16 bytes each; features `tool` and `loads`).
-pub type StaticScene<const N: usize, const B: usize, const G: usize = 0, const L: usize = 0> =
-    Scene<ArrayStorage<N, B, G, L>>;
+/// A scene in fixed-capacity arrays ([`ArrayStorage`]), as the [`Capacity`]
+/// `C` declares them: with [`capacity!`](crate::capacity), e.g.
+/// `corofem::capacity! { struct Beam { nodes: 99, elements: 240, grabs: 3 } }`
+/// and `StaticScene<Beam>`. [`StaticScene::new`](Scene::new) is a `const fn`
+/// whose value is all zero bits, for a `static` in `.bss`.
+pub type StaticScene<C> = Scene<ArrayStorage<C>>;
 
-impl<
-        const N: usize,
-        const B: usize,
-        const G: usize,
-        const L: usize,
-        const P: usize,
-        const A: usize,
-        const C: usize,
-    > Scene<ArrayStorage<N, B, G, L, P, A, C>>
-{
+impl<C: Capacity> Scene<ArrayStorage<C>> {
     /// An empty scene, in `const` context.
     #[must_use]
     pub const fn new() -> Self {
@@ -96,16 +89,7 @@ impl<
     }
 }
 
-impl<
-        const N: usize,
-        const B: usize,
-        const G: usize,
-        const L: usize,
-        const P: usize,
-        const A: usize,
-        const C: usize,
-    > Default for Scene<ArrayStorage<N, B, G, L, P, A, C>>
-{
+impl<C: Capacity> Default for Scene<ArrayStorage<C>> {
     fn default() -> Self {
         Self::new()
     }
@@ -136,16 +120,24 @@ impl<S: Storage> Scene<S> {
         }
     }
 
-    /// Node capacity of the storage (at most 65 536 are usable).
+    /// What the storage holds: [`Storage::capacity`].
     #[must_use]
-    pub fn node_capacity(&self) -> usize {
-        self.store.parts().0.len().min(MAX_NODES)
+    pub fn capacity(&self) -> Slots {
+        self.store.capacity()
     }
 
-    /// Element capacity of the storage (blocks × elements per block).
+    /// Node capacity of the storage (at most 65 536 are usable):
+    /// `capacity().nodes`.
+    #[must_use]
+    pub fn node_capacity(&self) -> usize {
+        self.capacity().nodes
+    }
+
+    /// Element capacity of the storage (blocks × elements per block):
+    /// `capacity().elements`.
     #[must_use]
     pub fn element_capacity(&self) -> usize {
-        self.store.parts().1.len().saturating_mul(LANES)
+        self.capacity().elements
     }
 
     crate::backend::isa_inline!(
@@ -192,22 +184,12 @@ impl<S: Storage> Scene<S> {
     );
 
     /// Whether this build and the storage can run `pre` (for a scene of as
-    /// many nodes as the storage holds).
+    /// many nodes as the storage holds): `pre` is at most
+    /// `capacity().preconditioner`, in the order `Mass`, `BlockJacobi`,
+    /// `TwoLevel`.
     #[must_use]
     pub fn supports(&self, pre: Preconditioner) -> bool {
-        if pre == Preconditioner::Mass {
-            return true;
-        }
-        #[cfg(feature = "two-level")]
-        {
-            let nodes = self.store.parts().0.len();
-            let (blocks, aggs, coarse) = self.store.preconditioner_capacity();
-            blocks >= nodes
-                && (pre != Preconditioner::TwoLevel
-                    || (aggs >= 1 && coarse >= crate::precond::coarse_blocks_for(aggs)))
-        }
-        #[cfg(not(feature = "two-level"))]
-        false
+        pre as u8 <= self.capacity().preconditioner as u8
     }
 
     /// Node `i`, if the scene has it.
@@ -218,7 +200,7 @@ impl<S: Storage> Scene<S> {
     pub(crate) fn nodes(&self) -> &[Node] {
         self.store
             .parts()
-            .0
+            .nodes
             .get(..self.hdr.n_nodes)
             .unwrap_or_default()
     }
@@ -229,7 +211,7 @@ impl<S: Storage> Scene<S> {
             return None;
         }
         let (b, j) = block_and_lane(e, self.hdr.n_elems);
-        self.store.parts().1.get(b).map(|blk| blk.get(j))
+        self.store.parts().elems.get(b).map(|blk| blk.get(j))
     }
 
     /// Builds the scene from node positions (m) and tetrahedra (node indices),
@@ -408,8 +390,9 @@ impl<S: Storage> Scene<S> {
     /// The default settings this build and this scene's storage run:
     /// [`Settings::new`] made [`Settings::compiled`], with the lumped mass
     /// (the paper's CG, [`Settings::with_preconditioner`]) where the storage
-    /// holds no two-level preconditioner's slots (a plain [`StaticScene`];
-    /// a [`VecScene`] and storage made with them do). What the scene steps
+    /// holds no two-level preconditioner's slots (a [`StaticScene`] whose
+    /// capacity leaves out `preconditioner`; a [`VecScene`] and storage made
+    /// with them have them). What the scene steps
     /// with until [`Scene::set_settings`]; start custom settings from it
     /// (`Settings { dt, ..scene.default_settings() }`) to keep what the
     /// build and the storage can run.
@@ -1084,8 +1067,12 @@ mod tests {
     use super::*;
     use crate::BoxMesh;
 
+    crate::capacity! {
+        /// Room for the cube.
+        struct CubeSlots { nodes: 27, elements: 48 }
+    }
     /// A 2×2×2-cell cube (27 nodes, 48 tetrahedra) held at `x = 0`.
-    type Cube = StaticScene<27, { element_blocks(48) }>;
+    type Cube = StaticScene<CubeSlots>;
 
     fn cube() -> Cube {
         let mesh = BoxMesh {
@@ -1118,12 +1105,18 @@ mod tests {
     #[cfg(feature = "two-level")]
     #[test]
     fn aggregates_are_connected_pieces_of_mesh() {
-        use crate::precond::coarse_blocks_for;
         use crate::storage::sealed::Sealed;
         const A: usize = 2;
-        type U = Scene<
-            ArrayStorage<126, { element_blocks(288) }, 0, 0, 126, A, { coarse_blocks_for(A) }>,
-        >;
+        crate::capacity! {
+            /// Room for the U's box, with two aggregates.
+            struct USlots {
+                nodes: 126,
+                elements: 288,
+                preconditioner: Preconditioner::TwoLevel,
+                aggregates: A,
+            }
+        }
+        type U = StaticScene<USlots>;
         let mesh = BoxMesh {
             size: [0.6, 0.8, 0.1],
             cells: [6, 8, 1],

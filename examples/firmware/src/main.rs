@@ -18,7 +18,7 @@ mod host;
 mod logger;
 mod measure;
 
-use corofem::{element_blocks, BoxMesh, Preconditioner, Vec3};
+use corofem::{BoxMesh, Preconditioner, StaticScene, Vec3};
 use corofem_test_scenes::firmware as scene;
 use cortex_m_rt::entry;
 use cortex_m_semihosting::debug::{self, EXIT_FAILURE, EXIT_SUCCESS};
@@ -34,10 +34,6 @@ const MESH: BoxMesh = scene::mesh(CELLS);
 const N: usize = MESH.node_count();
 /// Element capacity: exactly the mesh.
 const T: usize = MESH.tet_count();
-/// Element blocks for `T` elements (one element per block on this target).
-const B: usize = element_blocks(T);
-/// Grab slots: the nodes of the face the tool holds.
-const G: usize = scene::grabbed_nodes(CELLS);
 
 /// Steps timed with 1 CG iteration after the run, to split the cost of a
 /// step into its element/node passes and its CG iterations.
@@ -50,24 +46,26 @@ const SPLIT_STEPS: u32 = 20;
 const PRECONDITIONER: Preconditioner = Preconditioner::Mass;
 #[cfg(feature = "two-level")]
 const PRECONDITIONER: Preconditioner = Preconditioner::TwoLevel;
-/// Node-block preconditioner slots: one per node with `two-level`.
-#[cfg(not(feature = "two-level"))]
-const P: usize = 0;
-#[cfg(feature = "two-level")]
-const P: usize = N;
 /// Aggregate slots: what the two-level preconditioner uses for this beam.
 #[cfg(not(feature = "two-level"))]
-const A: usize = 0;
+const AGGREGATES: usize = 0;
 #[cfg(feature = "two-level")]
-const A: usize = scene::aggregates(CELLS);
-/// Slots of the coarse solve of `A` aggregates.
-#[cfg(not(feature = "two-level"))]
-const C: usize = 0;
-#[cfg(feature = "two-level")]
-const C: usize = corofem::coarse_blocks_for(A);
+const AGGREGATES: usize = scene::aggregates(CELLS);
+
+corofem::capacity! {
+    /// The scene's capacity: exactly the mesh, the face the tool holds, and
+    /// the slots of the preconditioner the haptic loop runs with.
+    struct Fw {
+        nodes: N,
+        elements: T,
+        grabs: scene::grabbed_nodes(CELLS),
+        preconditioner: PRECONDITIONER,
+        aggregates: AGGREGATES,
+    }
+}
 
 /// The scene, with exactly the mesh's capacity.
-type FwScene = corofem::Scene<corofem::ArrayStorage<N, B, G, 0, P, A, C>>;
+type FwScene = StaticScene<Fw>;
 
 #[entry]
 fn main() -> ! {
