@@ -233,3 +233,20 @@ pub fn smooth_surface(mesh: &CoreMesh, levels: u32) -> corofem_io::Surface {
 #[cfg(doctest)]
 #[doc = include_str!("../../docs/library.md")]
 pub struct LibraryGuide;
+
+/// The total mass, and the mass-weighted mean position and velocity (f64
+/// sums).
+pub fn centre(scene: &VecScene) -> (f64, [f64; 3], [f64; 3]) {
+    let (mut m, mut x, mut v) = (0.0f64, [0.0f64; 3], [0.0f64; 3]);
+    for i in 0..scene.node_count() as u32 {
+        let mi = f64::from(scene.mass(i).unwrap());
+        let p = scene.position(i).unwrap();
+        let vi = scene.velocity(i).unwrap();
+        m += mi;
+        for k in 0..3 {
+            x[k] += mi * f64::from(p[k]);
+            v[k] += mi * f64::from(vi[k]);
+        }
+    }
+    (m, x.map(|c| c / m), v.map(|c| c / m))
+}

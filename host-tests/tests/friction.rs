@@ -4,7 +4,7 @@
 //! impulse that changed its momentum. Bad coefficients are refused.
 
 use corofem::{Error, Friction, Material, Parameter, Plane, Settings, VecScene};
-use corofem_host_tests::box_mesh;
+use corofem_host_tests::{box_mesh, centre};
 
 const G: f32 = 9.81;
 
@@ -40,23 +40,6 @@ fn block_on_slope(theta: f32, friction: Friction, converged: bool) -> VecScene {
         })
         .unwrap();
     scene
-}
-
-/// The total mass, and the mass-weighted mean position and velocity (f64
-/// sums).
-fn centre(scene: &VecScene) -> (f64, [f64; 3], [f64; 3]) {
-    let (mut m, mut x, mut v) = (0.0f64, [0.0f64; 3], [0.0f64; 3]);
-    for i in 0..scene.node_count() as u32 {
-        let mi = f64::from(scene.mass(i).unwrap());
-        let p = scene.position(i).unwrap();
-        let vi = scene.velocity(i).unwrap();
-        m += mi;
-        for k in 0..3 {
-            x[k] += mi * f64::from(p[k]);
-            v[k] += mi * f64::from(vi[k]);
-        }
-    }
-    (m, x.map(|c| c / m), v.map(|c| c / m))
 }
 
 /// 20° with μ = 0.5 (tan 20° = 0.36): the block settles into its sheared

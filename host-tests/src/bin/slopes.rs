@@ -21,8 +21,8 @@
 //! 1e-6), `SLOPES_KINETIC` (a kinetic coefficient below μ);
 //! `SLOPES_TRACE=1` prints the steps of `--one`.
 
-use corofem::{Friction, Material, Plane, Settings, VecScene};
-use corofem_host_tests::box_mesh;
+use corofem::{Friction, Material, Plane, Settings};
+use corofem_host_tests::{box_mesh, centre};
 
 const G: f64 = 9.81;
 
@@ -48,21 +48,6 @@ struct Row {
     tangent_alone: u32,
     inverted: u32,
     cg: f64,
-}
-
-fn centre(scene: &VecScene) -> (f64, [f64; 3], [f64; 3]) {
-    let (mut m, mut x, mut v) = (0.0f64, [0.0f64; 3], [0.0f64; 3]);
-    for i in 0..scene.node_count() as u32 {
-        let mi = f64::from(scene.mass(i).unwrap());
-        let p = scene.position(i).unwrap();
-        let vi = scene.velocity(i).unwrap();
-        m += mi;
-        for k in 0..3 {
-            x[k] += mi * f64::from(p[k]);
-            v[k] += mi * f64::from(vi[k]);
-        }
-    }
-    (m, x.map(|c| c / m), v.map(|c| c / m))
 }
 
 fn run(c: &Case) -> Row {
