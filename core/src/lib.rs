@@ -183,15 +183,15 @@ pub use error::{Error, Parameter, StepError};
 pub use material::Material;
 pub use math::Vec3;
 pub use mesh_gen::BoxMesh;
-#[cfg(feature = "two-level")]
-pub use precond::{
-    aggregates_for, coarse_blocks_for, Aggregate, CoarseBlock, NodeBlock, MAX_AGGREGATES,
-    NODES_PER_AGGREGATE,
-};
 #[cfg(feature = "alloc")]
 pub use scene::VecScene;
 pub use scene::{BuildOptions, Scene, StaticScene};
 pub use settings::{Preconditioner, Settings, StepStats};
+#[cfg(feature = "two-level")]
+pub use slots::{
+    aggregates_for, coarse_blocks_for, Aggregate, CoarseBlock, NodeBlock, MAX_AGGREGATES,
+    NODES_PER_AGGREGATE,
+};
 #[cfg(feature = "statics")]
 pub use statics::{NewtonStats, StaticSettings};
 #[cfg(feature = "alloc")]

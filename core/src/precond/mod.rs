@@ -55,9 +55,8 @@ use crate::element::ElementBlock;
 use crate::math::{add, cross, dot, mat_vec, sqrt, sub, Mat3, Vec3};
 use crate::pass::each_element;
 use crate::rigid::Rigid;
-pub use crate::slots::{
-    aggregates_for, coarse_blocks_for, Aggregate, CoarseBlock, NodeBlock, MAX_AGGREGATES,
-    NODES_PER_AGGREGATE,
+pub(crate) use crate::slots::{
+    aggregates_for, coarse_blocks_for, Aggregate, CoarseBlock, NodeBlock,
 };
 pub(crate) use crate::slots::{stride, Parts, CHUNK, NONE};
 use crate::storage::{Node, NodeWork, FIXED};
