@@ -197,11 +197,11 @@ typedef struct {
     // library built with the feature `free-rotation` (the host default),
     // else 0; nonzero without it is refused (`COROFEM_INVALID_ARGUMENT`).
     uint32_t free_rotation;
-    // Most rounds of the contact state in a step (with friction): after the
-    // solve a held node's friction is made Coulomb's for the impulse it
-    // computed, and while that changes a node the solve goes on (the step's
-    // CG budget per round). 0: one solve, the state decided after the last
-    // step. Default 4.
+    // Most rounds of the contact state in a step (with friction): after
+    // the solve a held node's friction is made Coulomb's for the impulse
+    // it computed, and while that changes a node the solve goes on (the
+    // step's CG budget per round). 0: one solve, the state decided after
+    // the last step. Default 4.
     uint32_t contact_rounds;
 } corofem_settings;
 
