@@ -252,11 +252,13 @@ impl Settings {
         contact_rounds: 0,
     };
 
-    /// The most CG iterations a step runs: `2 cg_iterations + 16`. The
-    /// extra iterations only run while the energy certificate fails, which
-    /// takes a truncated solve that injects energy; the cap keeps a step's
-    /// worst case known: `iteration_cap() + 3` products with the system
-    /// matrix.
+    /// The most CG iterations one solve of a step runs: `2 cg_iterations +
+    /// 16`. The extra iterations only run while the energy certificate
+    /// fails, which takes a truncated solve that injects energy; the cap
+    /// keeps a solve's worst case known: `iteration_cap() + 3` products with
+    /// the system matrix. A step with friction solves again in each round
+    /// of [`Settings::contact_rounds`] that changes a node (one product more
+    /// where a node sticks again): at worst `1 + contact_rounds` solves.
     #[must_use]
     pub const fn iteration_cap(&self) -> u32 {
         self.cg_iterations.saturating_mul(2).saturating_add(16)
@@ -275,13 +277,17 @@ impl Default for Settings {
 pub struct StepStats {
     /// CG iterations run: the budget [`Settings::cg_iterations`], fewer
     /// where the tolerance stopped the solve, more (up to
-    /// [`Settings::iteration_cap`]) where the energy certificate needed them.
+    /// [`Settings::iteration_cap`]) where the energy certificate needed them,
+    /// and those of the solves the friction's rounds ran
+    /// ([`Settings::contact_rounds`]).
     pub cg_iterations: u32,
     /// Whether the step ended with the Galerkin step of a solve that had no
     /// energy certificate at the iteration cap.
     pub galerkin: bool,
     /// Final CG residual relative to the initial one, in the lumped-mass
-    /// norm of [`Settings::cg_tolerance`].
+    /// norm of [`Settings::cg_tolerance`]: of the step's last solve (after a
+    /// round of [`Settings::contact_rounds`], relative to where that solve
+    /// started).
     pub cg_residual: f32,
     /// Elements with negative current volume, at the start of the step.
     pub inverted: u32,
