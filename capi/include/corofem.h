@@ -75,9 +75,13 @@ enum corofem_status
     // A surface triangle repeats a vertex or has collinear corners.
     COROFEM_STATUS_DEGENERATE_TRIANGLE = -19,
     // A probe's first step (after it was added or placed) would start with
-    // a node of the body's surface inside it: `corofem_step_probes` names
-    // the probe and the node.
+    // a node of the body's surface inside it, or inside the body:
+    // `corofem_step_probes` names the probe and the node.
     COROFEM_STATUS_PROBE_INSIDE_BODY = -20,
+    // A step would start with a free node below the ground (checked by the
+    // first step after the ground is set or the body built, moved, reset
+    // or unfixed): move the body or the plane.
+    COROFEM_STATUS_BELOW_GROUND = -21,
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -472,6 +476,10 @@ corofem_status corofem_clear_forces(corofem_scene *scene);
 // Sets the ground plane `normal · x ≥ offset` (normal: 3 floats, any
 // length > 0; offset in m), or removes it when `normal` is null.
 // `COROFEM_STATUS_UNSUPPORTED` if the library was built without `ground`.
+// The body must start on or above it: the next step returns
+// `COROFEM_STATUS_BELOW_GROUND`, changing nothing, while a free node is
+// below it (so does the first step after the body is built, moved, reset
+// or unfixed).
 //
 // # Safety
 //
@@ -851,8 +859,9 @@ corofem_status corofem_probe_force(corofem_probes *probes,
 //
 // On `COROFEM_STATUS_PROBE_INSIDE_BODY` a probe's first step (after it was
 // added or placed) would start with a node of the body's surface inside
-// it: the probe's index goes to `*out_probe` and the node's to
-// `*out_node` (either may be null). On that error, on
+// it, or with the probe inside the body: the probe's index goes to
+// `*out_probe` and the node's to `*out_node`, `SIZE_MAX` for a probe
+// wholly inside the body (either may be null). On that error, on
 // `COROFEM_STATUS_DIVERGED` and on every other error, neither the scene
 // nor the probes change. `COROFEM_STATUS_UNSUPPORTED` if the library was
 // built without `probe`.

@@ -63,9 +63,13 @@ pub enum Status {
     /// A surface triangle repeats a vertex or has collinear corners.
     DegenerateTriangle = -19,
     /// A probe's first step (after it was added or placed) would start with
-    /// a node of the body's surface inside it: `corofem_step_probes` names
-    /// the probe and the node.
+    /// a node of the body's surface inside it, or inside the body:
+    /// `corofem_step_probes` names the probe and the node.
     ProbeInsideBody = -20,
+    /// A step would start with a free node below the ground (checked by the
+    /// first step after the ground is set or the body built, moved, reset
+    /// or unfixed): move the body or the plane.
+    BelowGround = -21,
 }
 
 impl Status {
@@ -94,6 +98,7 @@ impl Status {
             -18 => c"surface vertex too far outside the mesh",
             -19 => c"degenerate surface triangle",
             -20 => c"a probe starts inside the body",
+            -21 => c"the body starts below the ground",
             _ => c"unknown status code",
         }
     }
@@ -171,6 +176,10 @@ impl From<StepError> for Failure {
             StepError::TooManyProbes => Status::Capacity.into(),
             StepError::ProbeInsideBody { node, .. } => Self {
                 status: Status::ProbeInsideBody,
+                at: node.and_then(index),
+            },
+            StepError::BelowGround { node } => Self {
+                status: Status::BelowGround,
                 at: index(node),
             },
         }

@@ -386,6 +386,12 @@ fn methods_and_ground_switch() {
             corofem_set_ground(f.h, [0.0f32; 3].as_ptr(), 0.0),
             Status::InvalidArgument
         );
+        // A plane above the free nodes (at z = 1): the step is refused,
+        // nothing moves.
+        let before = f.hash();
+        assert_eq!(corofem_set_ground(f.h, up.as_ptr(), 1.5), Status::Ok);
+        assert_eq!(corofem_step(f.h, null_mut()), Status::BelowGround);
+        assert_eq!(f.hash(), before);
         assert_eq!(corofem_set_ground(f.h, null(), 0.0), Status::Ok);
         assert_eq!(corofem_set_elasticity(f.h, 2.0e4, 0.25), Status::Ok);
         assert_eq!(corofem_reset_state(f.h), Status::Ok);
@@ -443,7 +449,7 @@ fn box_mesh_and_messages() {
             Status::Ok
         );
         assert_eq!(nodes[3 * 26..], [1.0, 1.0, 1.0]);
-        for code in -20..=1 {
+        for code in -21..=1 {
             let s = std::ffi::CStr::from_ptr(corofem_status_str(code));
             assert!(!s.to_bytes().is_empty());
         }
@@ -1617,6 +1623,15 @@ mod probes {
             assert_eq!((pi, ni), (1, 3));
             assert_eq!(f.hash(), before, "no error changed the scene");
             assert_eq!(set.force(0), force, "nor the probe");
+            // Placed wholly inside the first tetrahedron (0.14 from its
+            // faces, 0.43 from its corners): no node, `SIZE_MAX`.
+            let centroid = [0.25f32, 0.25, 0.25];
+            let st = corofem_probe_place(set.p, 1, centroid.as_ptr(), null());
+            assert_eq!(st, Status::Ok);
+            let st = corofem_step_probes(f.h, set.p, null_mut(), &mut pi, &mut ni);
+            assert_eq!(st, Status::ProbeInsideBody);
+            assert_eq!((pi, ni), (1, usize::MAX));
+            assert_eq!(f.hash(), before, "no error changed the scene");
             // Placed away from the body, it no longer is; the twin gets the
             // same probe there.
             let away = [5.0f32, 5.0, 5.0];

@@ -405,14 +405,23 @@ impl<'a> Sim<'a> {
                         .probes
                         .get(probe as usize)
                         .map_or_else(|| format!("probe {probe}"), |p| p.label.clone());
+                    let what = match node {
+                        Some(node) => format!("node {node} is inside it"),
+                        None => "it lies inside the body".into(),
+                    };
                     CliError(format!(
                         "{}: {label} starts inside the body at step {} (t = {t_end} s): \
-                         node {node} is inside it; move its `position` (or its `path`'s \
-                         first point) so that it starts outside",
+                         {what}; move its `position` (or its `path`'s first point) so \
+                         that it starts outside",
                         spec.file,
                         k + 1
                     ))
                 }
+                corofem::StepError::BelowGround { node } => below_ground(
+                    &self.scene,
+                    node,
+                    &format!("{}: the body starts below [world] ground", spec.file),
+                ),
                 e => diverged(e.to_string()),
             })?;
             if !stats.cg_residual.is_finite() {
@@ -970,6 +979,32 @@ fn sig(x: f64) -> String {
     } else {
         format!("{x:.2e}")
     }
+}
+
+/// The message for a body that starts below the ground: the node the step
+/// named, its depth, and the largest `offset` that clears every free node.
+fn below_ground(scene: &VecScene, node: u32, what: &str) -> CliError {
+    let Some(g) = scene.ground() else {
+        return CliError(format!("{what}: node {node} is below it"));
+    };
+    let height = |x: [f32; 3]| {
+        f64::from(g.normal[0]) * f64::from(x[0])
+            + f64::from(g.normal[1]) * f64::from(x[1])
+            + f64::from(g.normal[2]) * f64::from(x[2])
+    };
+    let lowest = (0..scene.node_count() as u32)
+        .filter(|&i| !scene.is_fixed(i))
+        .filter_map(|i| scene.position(i))
+        .map(height)
+        .fold(f64::INFINITY, f64::min);
+    let depth = scene
+        .position(node)
+        .map_or(0.0, |x| f64::from(g.offset) - height(x));
+    CliError(format!(
+        "{what}: node {node} is {depth:.3e} m below the plane; set the ground's \
+         `offset` to at most {lowest:.6e} (the lowest free node's height along its \
+         normal), or move the mesh above it"
+    ))
 }
 
 #[cfg(test)]

@@ -69,6 +69,45 @@ fn a_probe_inside_the_body_is_named_as_the_scene_numbers_it() {
 }
 
 #[test]
+fn a_probe_wholly_inside_the_body_is_named_as_the_scene_numbers_it() {
+    let dir = TempDir::new("probe-wholly-inside");
+    // In the middle of a 0.2 m cell, 0.17 m from its corners.
+    let e = fails(
+        &dir,
+        &beam(
+            "steps = 5",
+            "[[probe]]\nradius = 0.02\nposition = [0.5, 0.1, 0.1]\n",
+        ),
+    );
+    assert!(
+        e.contains(
+            "scene.toml: [[probe]] #1 starts inside the body at step 1 (t = 0.001 s): \
+             it lies inside the body; move its `position`"
+        ),
+        "{e}"
+    );
+}
+
+#[test]
+fn a_body_below_the_ground_is_refused_with_the_offset_that_clears_it() {
+    let dir = TempDir::new("below-ground");
+    // The beam spans z in [0, 0.2]: a plane at 0.05 cuts it.
+    let e = fails(
+        &dir,
+        &beam(
+            "steps = 5",
+            "[world]\nground = { normal = [0.0, 0.0, 1.0], offset = 0.05 }\n",
+        ),
+    );
+    assert!(
+        e.contains("scene.toml: the body starts below [world] ground: node 0 is 5.000e-2 m below"),
+        "{e}"
+    );
+    assert!(e.contains("`offset` to at most 0.000000e0"), "{e}");
+    assert!(!e.contains("diverged"), "{e}");
+}
+
+#[test]
 fn values_beyond_f32_are_named_as_such() {
     let dir = TempDir::new("f32-range");
     let beyond = "within f32's range (at most 3.4e38 in magnitude; the solver computes in f32)";

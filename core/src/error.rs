@@ -418,12 +418,22 @@ pub enum StepError {
     /// A probe's first step (after [`Probe::sphere`](crate::Probe::sphere),
     /// [`Probe::capsule`](crate::Probe::capsule) or
     /// [`Probe::place`](crate::Probe::place)) starts with a boundary node of
-    /// the body inside it: move the probe out (for a device, start its
-    /// proxy outside the body).
+    /// the body inside it, or inside the body (its axis, or its centre for
+    /// a sphere, in an element): move the probe out (for a device, start
+    /// its proxy outside the body).
     ProbeInsideBody {
         /// The probe's index in the slice.
         probe: u32,
-        /// A boundary node inside it.
+        /// A boundary node inside the probe, or `None` for a probe inside
+        /// the body that holds no boundary node.
+        node: Option<u32>,
+    },
+    /// The step would start with a free node below the ground: the first
+    /// step after the ground is set, the body built, moved or reset, or its
+    /// nodes freed, checks it. Move the body or the plane so that the body
+    /// starts on or above it.
+    BelowGround {
+        /// The first node below the ground.
         node: u32,
     },
 }
@@ -436,11 +446,22 @@ impl fmt::Display for StepError {
                 write!(f, "the step produced non-finite values and was not applied")
             }
             StepError::TooManyProbes => write!(f, "more probes than a step takes"),
-            StepError::ProbeInsideBody { probe, node } => {
+            StepError::ProbeInsideBody {
+                probe,
+                node: Some(node),
+            } => write!(
+                f,
+                "the probe at index {probe} of the slice starts inside the body \
+                 (boundary node {node} is inside it)"
+            ),
+            StepError::ProbeInsideBody { probe, node: None } => write!(
+                f,
+                "the probe at index {probe} of the slice starts wholly inside the body"
+            ),
+            StepError::BelowGround { node } => {
                 write!(
                     f,
-                    "the probe at index {probe} of the slice starts inside the body \
-                     (boundary node {node} is inside it)"
+                    "the body starts below the ground (node {node} is below it)"
                 )
             }
         }

@@ -47,6 +47,11 @@ pub(crate) struct Header {
     /// The friction between the body and the ground.
     #[cfg(feature = "friction")]
     pub(crate) ground_friction: crate::Friction,
+    /// The ground or the body was placed (the ground set, the scene built,
+    /// positions or the state set, nodes freed) and the next step has not
+    /// yet checked that no node starts below the ground.
+    #[cfg(feature = "ground")]
+    pub(crate) ground_unchecked: bool,
     #[cfg(feature = "tool")]
     pub(crate) tool: ToolState,
     /// Entries used in the storage's load list (nodes flagged `LOADED`).
@@ -153,6 +158,16 @@ impl Header {
         }
     }
 
+    /// Marks the body or the ground as placed: the next step checks that
+    /// no node starts below the ground.
+    #[inline(always)]
+    pub(crate) fn placed(&mut self) {
+        #[cfg(feature = "ground")]
+        {
+            self.ground_unchecked = true;
+        }
+    }
+
     /// Forgets the energy guard's reference: after a change through the
     /// API (state, material, constraints, loads, settings) the next step's
     /// energy is the new reference, not a gain.
@@ -178,6 +193,8 @@ impl Header {
         ground: None,
         #[cfg(feature = "friction")]
         ground_friction: crate::Friction::NONE,
+        #[cfg(feature = "ground")]
+        ground_unchecked: false,
         #[cfg(feature = "tool")]
         tool: ToolState::NONE,
         #[cfg(feature = "loads")]

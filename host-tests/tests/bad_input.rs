@@ -504,6 +504,73 @@ fn step_errors_leave_the_state_unchanged() {
     assert!(s.positions().all(|p| p.iter().all(|v| v.is_finite())));
 }
 
+/// A body that starts below the ground is refused by the first step after
+/// each placement (the ground set, the body built, moved, reset or freed),
+/// naming its first node below, with nothing changed; one resting on the
+/// plane steps, and so does a body the steps themselves take into it.
+#[test]
+fn a_body_below_the_ground_is_refused() {
+    // The 2 × 1 × 1 m box spans z in [0, 1]; node 0 is fixed.
+    let mut s = scene();
+    let lowest_free = (1..s.node_count() as u32)
+        .filter(|&i| !s.is_fixed(i))
+        .min_by(|&a, &b| s.position(a).unwrap()[2].total_cmp(&s.position(b).unwrap()[2]))
+        .unwrap();
+    let floor = |offset| {
+        Some(Plane {
+            normal: [0.0, 0.0, 1.0],
+            offset,
+        })
+    };
+    let z = s.position(lowest_free).unwrap()[2];
+    s.set_ground(floor(z + 1e-3)).unwrap();
+    let before = fingerprint(&s);
+    match s.step() {
+        Err(StepError::BelowGround { node }) => {
+            assert!(s.position(node).unwrap()[2] < z + 1e-3);
+            assert!(!s.is_fixed(node));
+        }
+        other => panic!("{other:?}"),
+    }
+    assert_eq!(fingerprint(&s), before);
+    assert!(!StepError::BelowGround { node: 1 }.to_string().is_empty());
+    // On the plane: it steps, and goes on stepping as it sinks and is
+    // pushed out (the check is once per placement).
+    s.set_ground(floor(z)).unwrap();
+    s.set_settings(Settings {
+        gravity: [0.0, 0.0, -200.0],
+        ..*s.settings()
+    })
+    .unwrap();
+    for _ in 0..50 {
+        s.step().unwrap();
+    }
+    // Each placement checks again.
+    let rest: Vec<[f32; 3]> = (0..s.node_count() as u32)
+        .map(|i| s.rest_position(i).unwrap())
+        .collect();
+    let sunk: Vec<[f32; 3]> = rest.iter().map(|p| [p[0], p[1], p[2] - 0.5]).collect();
+    s.set_positions(&sunk).unwrap();
+    assert!(matches!(s.step(), Err(StepError::BelowGround { .. })));
+    s.reset_state();
+    s.step().unwrap();
+    s.set_displacements(&vec![[0.0, 0.0, -0.5]; s.node_count()])
+        .unwrap();
+    assert!(matches!(s.step(), Err(StepError::BelowGround { .. })));
+    s.set_ground(None).unwrap();
+    s.step().unwrap();
+    // Fixed nodes may lie below it; freed, they may not.
+    s.reset_state();
+    s.set_ground(floor(z + 1e-3)).unwrap();
+    let below: Vec<u32> = (0..s.node_count() as u32)
+        .filter(|&i| s.position(i).unwrap()[2] < z + 1e-3)
+        .collect();
+    s.fix_nodes(&below).unwrap();
+    s.step().unwrap();
+    s.unfix_all();
+    assert!(matches!(s.step(), Err(StepError::BelowGround { .. })));
+}
+
 /// Found by `.ci/fuzz.sh` (build_scene): a tetrahedron whose node d lies
 /// 2.8e38 m away has finite edges, volume and mass, but its 6V-scaled
 /// gradients (products of two coordinates) overflow, so even the rest state

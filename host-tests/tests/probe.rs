@@ -228,7 +228,10 @@ fn a_probe_may_not_start_inside_the_body() {
     let mut probes = [Probe::sphere(0.01, [0.02, 0.02, 0.018]).unwrap()];
     let (hash, kept) = (scene.state_hash(), probes);
     match scene.step_with_probes(&mut probes) {
-        Err(StepError::ProbeInsideBody { probe: 0, node }) => {
+        Err(StepError::ProbeInsideBody {
+            probe: 0,
+            node: Some(node),
+        }) => {
             assert!(probes[0].distance(scene.position(node).unwrap()) < 0.0)
         }
         other => panic!("{other:?}"),
@@ -245,6 +248,42 @@ fn a_probe_may_not_start_inside_the_body() {
         .place([0.02, 0.02, 0.03], [0.0, 0.0, 1.0])
         .unwrap();
     scene.step_with_probes(&mut probes).unwrap();
+}
+
+/// A probe inside the body that reaches no boundary node is refused too,
+/// and so is a thin capsule run through it between the surface's nodes:
+/// their axes meet elements. Placed outside, each steps.
+#[test]
+fn a_probe_wholly_inside_or_through_the_body_is_refused() {
+    let (_, mut scene) = block([6, 6, 3]);
+    // Cells of 6.7 mm: the nearest boundary node is 10 mm from the centre,
+    // and 3.3 mm from the thin capsule's axis.
+    let centre = [0.02, 0.02, 0.01];
+    let inside = [
+        Probe::sphere(0.003, centre).unwrap(),
+        Probe::capsule(0.003, 0.005, centre, [1.0, 0.0, 0.0]).unwrap(),
+        Probe::capsule(0.001, 0.03, centre, [1.0, 0.0, 0.0]).unwrap(),
+    ];
+    for (k, p) in inside.into_iter().enumerate() {
+        // Second in the slice, behind a probe well outside.
+        let mut probes = [Probe::sphere(0.005, [0.02, 0.02, 0.1]).unwrap(), p];
+        let (hash, kept) = (scene.state_hash(), probes);
+        assert_eq!(
+            scene.step_with_probes(&mut probes),
+            Err(StepError::ProbeInsideBody {
+                probe: 1,
+                node: None
+            }),
+            "probe {k}"
+        );
+        assert_eq!((scene.state_hash(), probes), (hash, kept), "probe {k}");
+        // Above the block, clear of it.
+        probes[1]
+            .place([0.02, 0.02, 0.05], [1.0, 0.0, 0.0])
+            .unwrap();
+        scene.step_with_probes(&mut probes).unwrap();
+        scene.reset_state();
+    }
 }
 
 #[test]

@@ -82,6 +82,10 @@ pub unsafe extern "C" fn corofem_clear_forces(scene: *mut SceneHandle) -> Status
 /// Sets the ground plane `normal · x ≥ offset` (normal: 3 floats, any
 /// length > 0; offset in m), or removes it when `normal` is null.
 /// `COROFEM_STATUS_UNSUPPORTED` if the library was built without `ground`.
+/// The body must start on or above it: the next step returns
+/// `COROFEM_STATUS_BELOW_GROUND`, changing nothing, while a free node is
+/// below it (so does the first step after the body is built, moved, reset
+/// or unfixed).
 ///
 /// # Safety
 ///

@@ -484,8 +484,9 @@ unsafe fn probe_force(
 ///
 /// On `COROFEM_STATUS_PROBE_INSIDE_BODY` a probe's first step (after it was
 /// added or placed) would start with a node of the body's surface inside
-/// it: the probe's index goes to `*out_probe` and the node's to
-/// `*out_node` (either may be null). On that error, on
+/// it, or with the probe inside the body: the probe's index goes to
+/// `*out_probe` and the node's to `*out_node`, `SIZE_MAX` for a probe
+/// wholly inside the body (either may be null). On that error, on
 /// `COROFEM_STATUS_DIVERGED` and on every other error, neither the scene
 /// nor the probes change. `COROFEM_STATUS_UNSUPPORTED` if the library was
 /// built without `probe`.
@@ -541,7 +542,7 @@ unsafe fn step_probes(
                     *o = probe as usize;
                 }
                 if let Some(o) = on {
-                    *o = node as usize;
+                    *o = node.map_or(usize::MAX, |n| n as usize);
                 }
             }
             Err(e.into())

@@ -381,6 +381,53 @@ impl Probe {
         sqrt(dot(a, a)) - self.radius < -self.rounding(x, self.start)
     }
 
+    /// Whether the probe's axis at the step's start (its centre, for a
+    /// sphere) meets the tetrahedron with corners `p`, faces included: a
+    /// probe lying inside the body with no boundary node in it has its axis
+    /// in some element. The segment is clipped against the four face
+    /// planes; each face's plane function `n·(x − p)` is affine along the
+    /// segment, so the part inside is one interval of its parameter.
+    /// Degenerate (zero-volume) tetrahedra meet nothing.
+    pub(crate) fn axis_meets(&self, p: [Vec3; 4]) -> bool {
+        let l = self.half_length;
+        let a = axpy(self.start, -l, self.start_axis);
+        let b = axpy(self.start, l, self.start_axis);
+        let vol = dot(cross(sub(p[1], p[0]), sub(p[2], p[0])), sub(p[3], p[0]));
+        if vol == 0.0 || !vol.is_finite() {
+            return false;
+        }
+        // Face opposite corner i, through corners (i+1, i+2, i+3): its
+        // normal points away from corner i when the tetrahedron is
+        // positively oriented; `vol`'s sign flips it for an inverted one.
+        let (mut lo, mut hi) = (0.0_f32, 1.0_f32);
+        for i in 0..4 {
+            let (q0, q1, q2) = (p[(i + 1) % 4], p[(i + 2) % 4], p[(i + 3) % 4]);
+            let mut n = cross(sub(q1, q0), sub(q2, q0));
+            if dot(n, sub(p[i], q0)) > 0.0 {
+                n = scale(n, -1.0);
+            }
+            // Outside where f > 0.
+            let fa = dot(n, sub(a, q0));
+            let fb = dot(n, sub(b, q0));
+            if fa > 0.0 && fb > 0.0 {
+                return false;
+            }
+            if fa > 0.0 {
+                // Enters at f = 0.
+                let t = fa / (fa - fb);
+                if t > lo {
+                    lo = t;
+                }
+            } else if fb > 0.0 {
+                let t = fa / (fa - fb);
+                if t < hi {
+                    hi = t;
+                }
+            }
+        }
+        lo <= hi
+    }
+
     /// The rounding of a distance from `x` to the probe centred at `c`: 4 ε
     /// times the magnitudes it is formed from.
     fn rounding(&self, x: Vec3, c: Vec3) -> f32 {

@@ -354,6 +354,7 @@ impl<S: Storage> Scene<S> {
         self.hdr.inverted = 0;
         self.hdr.any_fixed = false;
         self.hdr.invalidate_coarse();
+        self.hdr.placed();
         #[cfg(feature = "tool")]
         {
             self.hdr.tool = ToolState::NONE;
@@ -676,6 +677,7 @@ impl<S: Storage> Scene<S> {
     /// Frees every fixed node.
     pub fn unfix_all(&mut self) {
         self.hdr.forget_energy();
+        self.hdr.placed();
         let v = self.view();
         for n in v.nodes.iter_mut() {
             n.flags &= !FIXED;
@@ -756,6 +758,7 @@ impl<S: Storage> Scene<S> {
             n.u = sub(*p, n.x0);
         }
         self.hdr.forget_energy();
+        self.hdr.placed();
         Ok(())
     }
 
@@ -769,6 +772,7 @@ impl<S: Storage> Scene<S> {
             n.u = *u;
         }
         self.hdr.forget_energy();
+        self.hdr.placed();
         Ok(())
     }
 
@@ -787,6 +791,7 @@ impl<S: Storage> Scene<S> {
     /// start and the time are zeroed (constraints and loads are kept).
     pub fn reset_state(&mut self) {
         self.hdr.forget_energy();
+        self.hdr.placed();
         let v = self.view();
         for n in v.nodes.iter_mut() {
             n.u = [0.0; 3];
@@ -812,6 +817,8 @@ impl<S: Storage> Scene<S> {
     /// ([`InstructionSet::best`]) unless [`Scene::set_instruction_set`] chose
     /// another. Every instruction set gives the same bits.
     pub fn step(&mut self) -> Result<StepStats, StepError> {
+        #[cfg(feature = "ground")]
+        self.check_ground()?;
         crate::step::step(self.view())
     }
 
@@ -826,7 +833,7 @@ impl<S: Storage> Scene<S> {
     /// Refused with [`StepError::TooManyProbes`] for more than
     /// [`MAX_PROBES`](crate::MAX_PROBES), and with
     /// [`StepError::ProbeInsideBody`] for a probe whose first step starts
-    /// with a boundary node inside it. On any error the scene and the
+    /// with a boundary node inside it or lies inside the body. On any error the scene and the
     /// probes are unchanged.
     #[cfg(feature = "probe")]
     pub fn step_with_probes(
@@ -836,21 +843,47 @@ impl<S: Storage> Scene<S> {
         if probes.len() > crate::MAX_PROBES {
             return Err(StepError::TooManyProbes);
         }
+        #[cfg(feature = "ground")]
+        self.check_ground()?;
         for (k, p) in probes.iter().enumerate().filter(|(_, p)| p.fresh) {
             let inside = self.nodes().iter().position(|n| {
                 n.flags & crate::storage::BOUNDARY != 0 && p.starts_around(n.position())
             });
+            // Both below `MAX_NODES` and `MAX_PROBES`, 2¹⁶.
             if let Some(node) = inside {
-                // Both below `MAX_NODES` and `MAX_PROBES`, 2¹⁶.
                 return Err(StepError::ProbeInsideBody {
                     probe: k as u32,
-                    node: node as u32,
+                    node: Some(node as u32),
+                });
+            }
+            if self.axis_inside(p) {
+                return Err(StepError::ProbeInsideBody {
+                    probe: k as u32,
+                    node: None,
                 });
             }
         }
         let mut view = self.view();
         view.probes.list = probes;
         crate::step::step(view)
+    }
+
+    /// Whether a probe's axis at its step's start meets an element of the
+    /// deformed body: a probe wholly inside it reaches no boundary node.
+    #[cfg(feature = "probe")]
+    fn axis_inside(&self, p: &crate::Probe) -> bool {
+        (0..self.hdr.n_elems).any(|e| {
+            self.element_nodes(e).is_some_and(|ids| {
+                let mut x = [[0.0; 3]; 4];
+                for (xi, &i) in x.iter_mut().zip(&ids) {
+                    match self.position(i) {
+                        Some(q) => *xi = q,
+                        None => return false,
+                    }
+                }
+                p.axis_meets(x)
+            })
+        })
     }
 
     /// The instruction set [`Scene::step`] runs with.
