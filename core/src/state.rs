@@ -128,6 +128,11 @@ impl Header {
             friction: self.ground_friction,
             #[cfg(feature = "ground")]
             h: self.settings.dt,
+            #[cfg(feature = "friction")]
+            settle: crate::math::sqrt(crate::math::dot(
+                self.settings.gravity,
+                self.settings.gravity,
+            )) * self.settings.dt,
         }
     }
 

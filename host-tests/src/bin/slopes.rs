@@ -9,7 +9,8 @@
 //! `cargo run --release -p corofem-host-tests --bin slopes [-- --quick]`
 //! (`--quick`: the 4 × 4 × 2 cm block at dt 1 ms only; `--one MU THETA
 //! TETS YOUNG DT`: one case of that block, or with `SLOPES_BIG=1` of the
-//! 10 × 10 × 5 cm one, for `SLOPES_SECONDS`, default 0.5). Exits non-zero if a case
+//! 10 × 10 × 5 cm one, with `SLOPES_TALL=1` of the 2 × 2 × 4 cm one, for
+//! `SLOPES_SECONDS`, default 0.5). Exits non-zero if a case
 //! misses Coulomb's law by more than the bounds of docs/contact.md: below
 //! the angle, the centre moves by more than 10 µm over the run's second
 //! half; above, its acceleration there is off by more than 2 %, or a
@@ -19,7 +20,8 @@
 //! Settings other than the defaults, for comparisons: `SLOPES_ROUNDS`
 //! (`contact_rounds`), `SLOPES_CG` (`cg_iterations`, with `cg_tolerance`
 //! 1e-6), `SLOPES_KINETIC` (a kinetic coefficient below μ);
-//! `SLOPES_TRACE=1` prints the steps of `--one`.
+//! `SLOPES_TRACE=1` prints the steps of `--one` (`SLOPES_TRACE=all`: every
+//! step).
 
 use corofem::{Friction, Material, Plane, Settings};
 use corofem_host_tests::{box_mesh, centre};
@@ -48,6 +50,8 @@ struct Row {
     tangent_alone: u32,
     inverted: u32,
     cg: f64,
+    /// The step whose solve diverged (refused, the run stopped there).
+    diverged: Option<u32>,
 }
 
 fn run(c: &Case) -> Row {
@@ -95,11 +99,19 @@ fn run(c: &Case) -> Row {
     let mut x_half = 0.0;
     let mut cg = 0u64;
     let trace = std::env::var_os("SLOPES_TRACE").is_some();
+    let every = std::env::var_os("SLOPES_TRACE").is_some_and(|v| v == "all");
+    let mut diverged = None;
     for k in 1..=steps {
         let v_before = centre(&scene).2;
-        let s = scene.step().unwrap();
+        let s = match scene.step() {
+            Ok(s) => s,
+            Err(_) => {
+                diverged = Some(k);
+                break;
+            }
+        };
         let weight = centre(&scene).0 * G;
-        if trace && (k < 40 || k % 50 == 0) {
+        if trace && (every || k < 40 || k % 50 == 0) {
             let f = s.support_force.map(f64::from);
             let (_, _, v) = centre(&scene);
             eprintln!(
@@ -141,6 +153,7 @@ fn run(c: &Case) -> Row {
         tangent_alone: alone,
         inverted,
         cg: cg as f64 / f64::from(steps),
+        diverged,
     }
 }
 
@@ -150,13 +163,15 @@ fn main() {
         // --one MU THETA TETS YOUNG DT: one case, traced with SLOPES_TRACE.
         let num = |k: usize| args[i + k].parse::<f32>().expect("a number");
         let big = std::env::var_os("SLOPES_BIG").is_some();
+        let tall = std::env::var_os("SLOPES_TALL").is_some();
+        let (size, cells) = match (big, tall) {
+            (true, _) => ([0.1, 0.1, 0.05], [5, 5, 3]),
+            (_, true) => ([0.02, 0.02, 0.04], [2, 2, 4]),
+            _ => ([0.04, 0.04, 0.02], [4, 4, 2]),
+        };
         let c = Case {
-            size: if big {
-                [0.1, 0.1, 0.05]
-            } else {
-                [0.04, 0.04, 0.02]
-            },
-            cells: if big { [5, 5, 3] } else { [4, 4, 2] },
+            size,
+            cells,
             tets: num(3) as u8,
             young: num(4),
             dt: num(5),
@@ -169,8 +184,17 @@ fn main() {
         };
         let r = run(&c);
         println!(
-            "slid {:.4} coulomb {:.4} accel {:.4} expect {:.4} cone {:.3} alone {} inverted {} cg {:.1}",
-            r.slid, r.expect, r.accel, r.expect_accel, r.cone, r.tangent_alone, r.inverted, r.cg
+            "slid {:.4} coulomb {:.4} accel {:.4} expect {:.4} cone {:.3} alone {} inverted {} cg {:.1}{}",
+            r.slid,
+            r.expect,
+            r.accel,
+            r.expect_accel,
+            r.cone,
+            r.tangent_alone,
+            r.inverted,
+            r.cg,
+            r.diverged
+                .map_or(String::new(), |k| format!(" diverged at step {k}"))
         );
         return;
     }
@@ -235,7 +259,8 @@ fn main() {
                             } else {
                                 (r.accel - r.expect_accel).abs() > 0.02 * r.expect_accel
                             };
-                            let bad = !tips && (missed || r.cone > 1.01 || r.tangent_alone > 0);
+                            let bad = r.diverged.is_some()
+                                || !tips && (missed || r.cone > 1.01 || r.tangent_alone > 0);
                             failed += u32::from(bad);
                             cases += 1;
                             tipping += u32::from(tips);
@@ -256,7 +281,9 @@ fn main() {
                                 r.tangent_alone,
                                 r.inverted,
                                 r.cg,
-                                if tips {
+                                if r.diverged.is_some() {
+                                    "  DIVERGED"
+                                } else if tips {
                                     "  tips"
                                 } else if bad {
                                     "  FAIL"
