@@ -241,6 +241,24 @@ pub(crate) fn reach(
     per_young: [f32; 2],
     h: f32,
 ) -> f32 {
+    let ratio2 = wave(body, elems, n_elems, per_young, h);
+    if ratio2 >= 1.0 {
+        1.0
+    } else {
+        crate::math::sqrt(ratio2.max(0.0))
+    }
+}
+
+/// `(c h / L)²`, the square of the distance a pressure wave travels in a
+/// step over the body's radius of gyration ([`reach`], uncapped; 0 for a
+/// body without inertia).
+pub(crate) fn wave(
+    body: &Rigid,
+    elems: &[crate::element::ElementBlock],
+    n_elems: usize,
+    per_young: [f32; 2],
+    h: f32,
+) -> f32 {
     let mut ev = 0.0f32;
     // Unused lanes of the last block have zero stiffness.
     for blk in elems.iter().take(n_elems.div_ceil(crate::lanes::LANES)) {
@@ -252,12 +270,8 @@ pub(crate) fn reach(
     let Some(inertia) = body.inertia else {
         return 0.0;
     };
+    // (Above: a body without inertia moves as nothing, `reach` 0.)
     let trace = inertia[0][0] + inertia[1][1] + inertia[2][2];
     // (c h / L)² = (λ' + 2μ') Σ E V h² / M · 2M / tr I.
-    let ratio2 = (per_young[0] + 2.0 * per_young[1]) * ev * h * h * 2.0 / trace;
-    if ratio2 >= 1.0 {
-        1.0
-    } else {
-        crate::math::sqrt(ratio2.max(0.0))
-    }
+    (per_young[0] + 2.0 * per_young[1]) * ev * h * h * 2.0 / trace
 }

@@ -271,7 +271,9 @@ pub(crate) fn on_ground(n: &Node) -> bool {
 /// gives its mass, so that the contact's impulse stays a push while the
 /// forces that pressed it press again, and at most what gravity gives in a
 /// step (`settle`, `|g| h`), so that it is no faster than a fall; the gap
-/// is what that speed covers in the step. Frictionless contacts let such a
+/// is what that speed covers in the step. For a stiff body `settle` is
+/// smaller (the detect stage, `step::guess::detect`), so that bringing the
+/// node back strains the body no more than its weight does. Frictionless contacts let such a
 /// node go: the step it is free costs no tangential impulse.
 #[cfg(feature = "ground")]
 #[derive(Clone, Copy, Default)]

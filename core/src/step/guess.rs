@@ -18,10 +18,29 @@ pub(super) fn detect(
     probes: &mut Probes<'_>,
     nodes: &mut [Node],
     work: &mut [NodeWork],
+    elems: &[ElementBlock],
+    n_elems: usize,
     ctx: &mut Ctx,
 ) -> Held {
     contact::begin(probes);
-    let obstacles = Obstacles::new(ctx.ground, probes);
+    #[allow(unused_mut)] // only friction scales the hold-on
+    let mut ground = ctx.ground;
+    let _ = (elems, n_elems);
+    #[cfg(feature = "friction")]
+    if ground.plane.is_some() && ground.friction.sticks() {
+        // The hold-on's speed, for a body stiff enough that a pressure
+        // wave crosses it within the step (`ratio² = (c h / L)² > 1`):
+        // a node brought back to the plane by its gap `δ` strains the
+        // body by `δ / L`, which stays within the strain of its own
+        // weight, `g L / c²`, for `δ ≤ g h² / ratio²` (`contact::HoldOn`).
+        let ratio2 = Rigid::new(nodes, true).map_or(0.0, |body| {
+            crate::rigid::wave(&body, elems, n_elems, ctx.per_young, ctx.h)
+        });
+        if ratio2 > 1.0 {
+            ground.settle /= ratio2;
+        }
+    }
+    let obstacles = Obstacles::new(ground, probes);
     let held = contact::detect(obstacles, nodes, work, ctx.h);
     // The grabbed nodes hold the body (a grab lists at least one node).
     ctx.isolated = !ctx.any_fixed && !hdr.spring().active() && held.held == 0;

@@ -139,7 +139,7 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
     let (nodes, work) = (&mut nodes[..len], &mut work[..len]);
 
     // What holds the body, and the guess the solve starts from.
-    let held = guess::detect(hdr, &mut probes, nodes, work, &mut ctx);
+    let held = guess::detect(hdr, &mut probes, nodes, work, elems, n_elems, &mut ctx);
     let carry = guess::carry(&ctx, &held, nodes, elems, n_elems);
     let guess = guess::guess(hdr, &ctx, &held, &carry, &probes, nodes, work);
 
