@@ -128,7 +128,7 @@ impl Header {
             friction: self.ground_friction,
             #[cfg(feature = "ground")]
             h: self.settings.dt,
-            #[cfg(feature = "friction")]
+            #[cfg(feature = "ground")]
             settle: crate::math::sqrt(crate::math::dot(
                 self.settings.gravity,
                 self.settings.gravity,

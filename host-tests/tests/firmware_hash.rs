@@ -113,7 +113,7 @@ fn firmware_scene_in_contact_golden_hashes() {
     // print the same values.
     let golden = [
         (ContactSet::GROUND, 0x4ad0_b5a8_7475_d643),
-        (ContactSet::PROBE, 0xf489_d484_63b4_e5e2),
+        (ContactSet::PROBE, 0xb443_086f_06ed_3f02),
         (ContactSet::PROBE_FRICTION, 0x4a99_2584_8615_1890),
     ];
     for (set, want) in golden {

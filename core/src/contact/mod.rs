@@ -78,7 +78,7 @@ pub(crate) struct Ground {
     #[cfg(feature = "ground")]
     pub(crate) h: f32,
     /// `|g| h`, the speed gravity gives in a step ([`HoldOn`]).
-    #[cfg(feature = "friction")]
+    #[cfg(feature = "ground")]
     pub(crate) settle: f32,
 }
 
@@ -90,7 +90,7 @@ pub(crate) struct Obstacles<'a> {
     #[cfg(feature = "friction")]
     ground_friction: crate::Friction,
     /// [`Ground::settle`].
-    #[cfg(feature = "friction")]
+    #[cfg(feature = "ground")]
     settle: f32,
     #[cfg(feature = "probe")]
     probes: &'a [crate::Probe],
@@ -107,7 +107,7 @@ impl<'a> Obstacles<'a> {
             ground: ground.plane,
             #[cfg(feature = "friction")]
             ground_friction: ground.friction,
-            #[cfg(feature = "friction")]
+            #[cfg(feature = "ground")]
             settle: ground.settle,
             #[cfg(feature = "probe")]
             probes: probes.list,
@@ -253,28 +253,30 @@ pub(crate) fn on_ground(n: &Node) -> bool {
 }
 
 /// How far off the ground's plane (`gap`), and how fast away from it
-/// (`speed`), a node that the ground held with friction last step, and did
-/// not let go for pulling, may start a step and still be held; zero for
-/// every other node.
+/// (`speed`), a node that the ground held last step, and did not let go
+/// for pulling, may start a step and still be held; zero for every other
+/// node.
 ///
 /// Such a node ends its step on the plane only up to the rounding of its
 /// position (a landing's rigid impact recomputes every position about the
 /// centre of mass: 4 ε times its magnitudes), or off it: the rigid impact
 /// of another node's landing gives it an outward speed, a push out leaves
-/// it above. Let go for that, it falls for a step without friction, lands,
-/// is pushed out and lifts off again: a contact every other step, and the
-/// friction of none of those steps Coulomb's (the 10 × 10 × 5 cm block at
-/// μ 0.5 slid 80 % of Coulomb's distance, its support up to 2.4 times the
-/// cone). Held on, the step takes its outward speed back and brings it to
-/// the plane, and the solve's force decides its release, as for every held
-/// node. The speed is at most what its last contact impulse `λₙ = −pull`
-/// gives its mass, so that the contact's impulse stays a push while the
-/// forces that pressed it press again, and at most what gravity gives in a
-/// step (`settle`, `|g| h`), so that it is no faster than a fall; the gap
-/// is what that speed covers in the step. For a stiff body `settle` is
+/// it above. Let go for that, it falls for a step (without friction, if it
+/// had any), lands, is pushed out and lifts off again: a contact every
+/// other step. With friction, Coulomb's law then holds in none of those
+/// steps (the 10 × 10 × 5 cm block at μ 0.5 slid 80 % of Coulomb's
+/// distance, its support up to 2.4 times the cone); without, each landing
+/// and push works on the body (a spinning liver of slivers gained kinetic
+/// energy on the ground and ended with an inverted element). Held on, the
+/// step takes its outward speed back and brings it to the plane, and the
+/// solve's force decides its release, as for every held node. The speed
+/// is at most what its last contact impulse `λₙ = −pull` gives its mass,
+/// so that the contact's impulse stays a push while the forces that
+/// pressed it press again, and at most what gravity gives in a step
+/// (`settle`, `|g| h`), so that it is no faster than a fall; the gap is
+/// what that speed covers in the step. For a stiff body `settle` is
 /// smaller (the detect stage, `step::guess::detect`), so that bringing the
-/// node back strains the body no more than its weight does. Frictionless contacts let such a
-/// node go: the step it is free costs no tangential impulse.
+/// node back strains the body no more than its weight does.
 #[cfg(feature = "ground")]
 #[derive(Clone, Copy, Default)]
 struct HoldOn {
@@ -293,22 +295,18 @@ impl HoldOn {
         h: f32,
         was: Option<u16>,
     ) -> Self {
-        let _ = (obstacles, n, w, x, h, was);
-        #[cfg(feature = "friction")]
         if let (Some(ON_GROUND), Some(g)) = (was, obstacles.ground) {
-            if obstacles.ground_friction.sticks() {
-                let size = x[0].abs() + x[1].abs() + x[2].abs() + g.offset.abs();
-                let speed = (-w.pull / n.mass).min(obstacles.settle);
-                let speed = if speed > 0.0 && speed.is_finite() {
-                    speed
-                } else {
-                    0.0
-                };
-                return Self {
-                    gap: 4.0 * f32::EPSILON * size + h * speed,
-                    speed,
-                };
-            }
+            let size = x[0].abs() + x[1].abs() + x[2].abs() + g.offset.abs();
+            let speed = (-w.pull / n.mass).min(obstacles.settle);
+            let speed = if speed > 0.0 && speed.is_finite() {
+                speed
+            } else {
+                0.0
+            };
+            return Self {
+                gap: 4.0 * f32::EPSILON * size + h * speed,
+                speed,
+            };
         }
         Self::default()
     }

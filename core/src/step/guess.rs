@@ -23,11 +23,11 @@ pub(super) fn detect(
     ctx: &mut Ctx,
 ) -> Held {
     contact::begin(probes);
-    #[allow(unused_mut)] // only friction scales the hold-on
+    #[allow(unused_mut)] // only the ground scales the hold-on
     let mut ground = ctx.ground;
     let _ = (elems, n_elems);
-    #[cfg(feature = "friction")]
-    if ground.plane.is_some() && ground.friction.sticks() {
+    #[cfg(feature = "ground")]
+    if ground.plane.is_some() && nodes.iter().any(contact::on_ground) {
         // The hold-on's speed, for a body stiff enough that a pressure
         // wave crosses it within the step (`ratio² = (c h / L)² > 1`):
         // a node brought back to the plane by its gap `δ` strains the
