@@ -270,7 +270,6 @@ pub(crate) fn wave(
     let Some(inertia) = body.inertia else {
         return 0.0;
     };
-    // (Above: a body without inertia moves as nothing, `reach` 0.)
     let trace = inertia[0][0] + inertia[1][1] + inertia[2][2];
     // (c h / L)² = (λ' + 2μ') Σ E V h² / M · 2M / tr I.
     (per_young[0] + 2.0 * per_young[1]) * ev * h * h * 2.0 / trace
