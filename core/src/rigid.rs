@@ -241,7 +241,12 @@ pub(crate) fn reach(
     per_young: [f32; 2],
     h: f32,
 ) -> f32 {
-    let ratio2 = wave(body, elems, n_elems, per_young, h);
+    share(wave(body, elems, n_elems, per_young, h))
+}
+
+/// [`reach`] from the body's [`wave`] `ratio2`.
+#[inline(always)]
+pub(crate) fn share(ratio2: f32) -> f32 {
     if ratio2 >= 1.0 {
         1.0
     } else {

@@ -52,6 +52,14 @@ impl Plane {
         offset: 0.0,
     };
 
+    /// The rounding of the signed distance `normal · x − offset` of a point
+    /// `x` (unit normal): 4 ε times the magnitudes it is summed from,
+    /// `|x|₁ + |offset|`. A node within it of the plane lies on it.
+    #[inline(always)]
+    pub(crate) fn rounding(&self, x: Vec3) -> f32 {
+        4.0 * f32::EPSILON * (x[0].abs() + x[1].abs() + x[2].abs() + self.offset.abs())
+    }
+
     /// The same plane with a unit normal, or `None` if it is not finite or the
     /// normal is zero. The offset is rescaled so the plane does not move.
     #[must_use]

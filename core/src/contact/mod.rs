@@ -296,7 +296,6 @@ impl HoldOn {
         was: Option<u16>,
     ) -> Self {
         if let (Some(ON_GROUND), Some(g)) = (was, obstacles.ground) {
-            let size = x[0].abs() + x[1].abs() + x[2].abs() + g.offset.abs();
             let speed = (-w.pull / n.mass).min(obstacles.settle);
             let speed = if speed > 0.0 && speed.is_finite() {
                 speed
@@ -304,7 +303,7 @@ impl HoldOn {
                 0.0
             };
             return Self {
-                gap: 4.0 * f32::EPSILON * size + h * speed,
+                gap: g.rounding(x) + h * speed,
                 speed,
             };
         }
@@ -439,16 +438,20 @@ pub(crate) fn carry(
     held: &Held,
     any_fixed: bool,
     fall: Vec3,
+    start: Option<(Rigid, f32)>,
     nodes: &[Node],
     reach: impl FnOnce(&Rigid) -> f32,
 ) -> Carry {
-    let _ = (ground, held, any_fixed, fall, nodes, &reach);
+    let _ = (ground, held, any_fixed, fall, start, nodes, &reach);
     #[cfg(feature = "ground")]
     {
         let h = ground.h;
         let ground = ground.plane;
         let resting = match ground {
-            Some(_) if held.ground > 0 && !any_fixed => Rigid::new(nodes, true),
+            Some(_) if held.ground > 0 && !any_fixed => match start {
+                Some((body, _)) => Some(body),
+                None => Rigid::new(nodes, true),
+            },
             _ => None,
         };
         let lift = match (ground, &resting) {

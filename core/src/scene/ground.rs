@@ -41,8 +41,7 @@ impl<S: crate::Storage> crate::Scene<S> {
         if let Some(g) = self.hdr.ground {
             let below = self.nodes().iter().position(|n| {
                 let x = n.position();
-                let size = x[0].abs() + x[1].abs() + x[2].abs() + g.offset.abs();
-                n.flags & FIXED == 0 && dot(g.normal, x) - g.offset < -4.0 * f32::EPSILON * size
+                n.flags & FIXED == 0 && dot(g.normal, x) - g.offset < -g.rounding(x)
             });
             if let Some(node) = below {
                 // Below `MAX_NODES`, 2¹⁶.

@@ -65,9 +65,7 @@ pub(super) fn turn(
         // preconditioner's when it has one (the nodes have not moved since).
         let known = solved.rigid.filter(|b| b.inertia.is_some());
         let body = known.or_else(|| crate::rigid::Rigid::new(nodes, true));
-        let share = |body: &crate::rigid::Rigid| {
-            crate::rigid::reach(body, elems, n_elems, ctx.per_young, ctx.h)
-        };
+        let share = |body: &crate::rigid::Rigid| ctx.share(body, elems, n_elems);
         if crate::turn::turn(body, nodes, work, ctx.h, share) {
             end.below = contact::below(ctx.ground, nodes, work);
         }
@@ -93,9 +91,7 @@ pub(super) fn impact(
     let _ = (ctx, held, carry, &end, nodes, elems, n_elems, &work);
     #[cfg(feature = "ground")]
     if let (Some(g), true, false) = (ctx.ground.plane, end.below, ctx.any_fixed) {
-        let share = |body: &crate::rigid::Rigid| {
-            crate::rigid::reach(body, elems, n_elems, ctx.per_young, ctx.h)
-        };
+        let share = |body: &crate::rigid::Rigid| ctx.share(body, elems, n_elems);
         let body = match carry.resting() {
             Some(body) => Some(body),
             None => crate::rigid::Rigid::new(nodes, true),

@@ -5,7 +5,7 @@ use super::Ctx;
 use crate::contact::{self, Carry, Held, Obstacles, Probes};
 use crate::element::ElementBlock;
 use crate::math::{add, scale};
-use crate::rigid::{reach, Rigid};
+use crate::rigid::Rigid;
 use crate::state::Header;
 use crate::storage::{Node, NodeWork, FIXED};
 
@@ -33,9 +33,11 @@ pub(super) fn detect(
         // a node brought back to the plane by its gap `δ` strains the
         // body by `δ / L`, which stays within the strain of its own
         // weight, `g L / c²`, for `δ ≤ g h² / ratio²` (`contact::HoldOn`).
-        let ratio2 = Rigid::new(nodes, true).map_or(0.0, |body| {
-            crate::rigid::wave(&body, elems, n_elems, ctx.per_young, ctx.h)
+        ctx.start = Rigid::new(nodes, true).map(|body| {
+            let ratio2 = crate::rigid::wave(&body, elems, n_elems, ctx.per_young, ctx.h);
+            (body, ratio2)
         });
+        let ratio2 = ctx.start.map_or(0.0, |(_, r)| r);
         if ratio2 > 1.0 {
             ground.settle /= ratio2;
         }
@@ -56,8 +58,16 @@ pub(super) fn carry(
     elems: &[ElementBlock],
     n_elems: usize,
 ) -> Carry {
-    let share = |body: &Rigid| reach(body, elems, n_elems, ctx.per_young, ctx.h);
-    contact::carry(ctx.ground, held, ctx.any_fixed, ctx.fall, nodes, share)
+    let share = |body: &Rigid| ctx.share(body, elems, n_elems);
+    contact::carry(
+        ctx.ground,
+        held,
+        ctx.any_fixed,
+        ctx.fall,
+        ctx.start,
+        nodes,
+        share,
+    )
 }
 
 /// What the guess stage decided, for the stages after it.

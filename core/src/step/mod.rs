@@ -84,9 +84,30 @@ pub(crate) struct Ctx {
     /// Nothing holds the body: no fixed node, tool or contact (set by the
     /// detect stage).
     pub(crate) isolated: bool,
+    /// The body at the step's start, with its inertia, and its
+    /// [`wave`](crate::rigid::wave) `(c h / L)²`, where the detect stage
+    /// needed them (the nodes do not move until the commit: every later
+    /// stage's body at the start is this one, bit for bit).
+    pub(crate) start: Option<(crate::rigid::Rigid, f32)>,
 }
 
 impl Ctx {
+    /// The share of the start body `body` that moves as one over the step
+    /// ([`reach`](crate::rigid::reach)), from the detect stage's wave where
+    /// it has one.
+    #[inline(always)]
+    pub(crate) fn share(
+        &self,
+        body: &crate::rigid::Rigid,
+        elems: &[crate::element::ElementBlock],
+        n_elems: usize,
+    ) -> f32 {
+        match self.start {
+            Some((_, ratio2)) => crate::rigid::share(ratio2),
+            None => crate::rigid::reach(body, elems, n_elems, self.per_young, self.h),
+        }
+    }
+
     #[inline(always)]
     fn new(hdr: &Header) -> Self {
         let s = hdr.settings;
@@ -107,6 +128,7 @@ impl Ctx {
             rotations: matches!(s.method, crate::Method::Qr | crate::Method::QrInvertible),
             ground: hdr.ground(),
             isolated: false,
+            start: None,
         }
     }
 }
