@@ -158,8 +158,13 @@ pub struct Settings {
     /// friction is made Coulomb's for the impulse the solve computed: a
     /// sticking node whose impulse leaves the static cone slides, a
     /// sliding node's kinetic force follows its normal impulse, one that
-    /// its force turned back sticks. While a round changes a node the solve
-    /// goes on from where it stopped, with `cg_iterations` more. 0 keeps
+    /// its force turned back sticks, and a free node that the solve takes
+    /// below a ground with friction is caught there (held from that round
+    /// on; not for a body a pressure wave crosses within the step, whose
+    /// landing is stopped whole after the solve). While a round changes a
+    /// node the solve goes on from where it stopped, with `cg_iterations`
+    /// more, twice that for a body a pressure wave crosses within the step
+    /// (a change at one contact moves all of it). 0 keeps
     /// the state the step started with (each node's decided after the last
     /// step): one solve, but a node that lands or starts to stick is
     /// stopped by whatever impulse that takes. Default 4.

@@ -438,7 +438,7 @@ pub(crate) fn carry(
     held: &Held,
     any_fixed: bool,
     fall: Vec3,
-    start: Option<(Rigid, f32)>,
+    start: Option<Rigid>,
     nodes: &[Node],
     reach: impl FnOnce(&Rigid) -> f32,
 ) -> Carry {
@@ -448,10 +448,7 @@ pub(crate) fn carry(
         let h = ground.h;
         let ground = ground.plane;
         let resting = match ground {
-            Some(_) if held.ground > 0 && !any_fixed => match start {
-                Some((body, _)) => Some(body),
-                None => Rigid::new(nodes, true),
-            },
+            Some(_) if held.ground > 0 && !any_fixed => start.or_else(|| Rigid::new(nodes, true)),
             _ => None,
         };
         let lift = match (ground, &resting) {
@@ -758,9 +755,11 @@ fn turned_back(n: &Node, slip: Vec3, drag: Vec3, h: f32) -> bool {
 pub(crate) struct Round {
     /// Nodes whose friction state or force changed: the solve goes on.
     pub(crate) changed: u32,
-    /// Nodes that stick again: their velocity change moved by `d`, whose
-    /// `A d` the residual must lose before the solve goes on.
+    /// Nodes that stick again or are caught: their velocity change moved
+    /// by `d`, whose `A d` the residual must lose before the solve goes on.
     pub(crate) moved: u32,
+    /// Free nodes caught by the ground (`catch`).
+    pub(crate) caught: u32,
 }
 
 /// The kinetic force of a sliding node is made that of the current normal
@@ -786,27 +785,42 @@ const DRAG_TOLERANCE: f32 = 1e-2;
 /// * a node whose contact pulls (`λₙ < 0`) has no friction: a cone of
 ///   negative height holds nothing. (Whether it stays held is the
 ///   contact's rule after the solve.)
+/// * with `catch`, a free node that the solve takes below a ground with
+///   friction by the step's end is held from this round on ([`catches`]).
 ///
 /// Every change keeps `r = b − A x` exact: a force adds `h` times itself to
-/// the residual, and a node that sticks again gets its prescribed velocity
-/// change in `x` and the move in `d` (zero elsewhere), for the caller to
-/// take `A d` off `r`. The solve then goes on from the iterate it stopped
-/// at, with the new state.
+/// the residual, and a node that sticks again or is caught gets its
+/// prescribed velocity change in `x` and the move in `d` (zero elsewhere),
+/// for the caller to take `A d` off `r`. The solve then goes on from the
+/// iterate it stopped at, with the new state.
 #[inline(always)]
 pub(crate) fn cone(
     obstacles: Obstacles<'_>,
     nodes: &mut [Node],
     work: &mut [NodeWork],
     h: f32,
+    catch: bool,
 ) -> Round {
-    let _ = (obstacles, &nodes, &work, h);
+    let _ = (obstacles, &nodes, &work, h, catch);
     #[allow(unused_mut)] // only friction changes the state
     let mut round = Round::default();
     #[cfg(feature = "friction")]
     if obstacles.any() {
+        // The ground, where it has friction, for the catch.
+        let ground = obstacles
+            .ground
+            .map(|g| obstacles.ground_contact(g))
+            .filter(|c| catch && c.friction.sticks());
         for (n, w) in nodes.iter_mut().zip(work.iter_mut()) {
             w.d = [0.0; 3];
             let Some(c) = obstacles.holding(n) else {
+                if let Some(g) = &ground {
+                    if catches(g, n, w, h) {
+                        round.changed += 1;
+                        round.moved += 1;
+                        round.caught += 1;
+                    }
+                }
                 continue;
             };
             match slide_or_stick(&c, n, w, scale(w.r, -1.0), h) {
@@ -820,6 +834,43 @@ pub(crate) fn cone(
         }
     }
     round
+}
+
+/// The catch of a round (`cone`): a free node (not fixed, not held) that
+/// starts the step on or above the ground's plane `g` and that the solve's
+/// velocity change so far `x` takes below it by the step's end is held
+/// from this round on, as the detect stage would hold it next step: its
+/// normal velocity change prescribed so that it ends on the plane, and
+/// sticking, unless the ground released it for pulling in the last step
+/// (it slides then, from the next round). Returns whether it was caught.
+///
+/// Left for after the solve, such a node is stopped along the normal alone
+/// (`land`): an impulse without friction. A soft block sliding past its
+/// friction angle rocks on its front edge, its rear nodes land again and
+/// again, and their landings carry much of its weight without the friction
+/// of it: it slides faster than Coulomb's law allows (docs/contact.md).
+#[cfg(feature = "friction")]
+#[inline(always)]
+fn catches(g: &Contact, n: &mut Node, w: &mut NodeWork, h: f32) -> bool {
+    if n.flags & FIXED != 0 {
+        return false;
+    }
+    let x = n.position();
+    let start = g.distance(x);
+    if !(start >= 0.0) || g.distance(axpy(x, h, add(n.v, w.x))) >= 0.0 {
+        return false;
+    }
+    n.flags |= CONTACT;
+    n.contact = ON_GROUND;
+    let caught = if n.flags & RELEASED == 0 {
+        n.flags |= STUCK;
+        g.stuck_dv(start, n.v, h)
+    } else {
+        g.with_normal(w.x, g.held_dv(start, n.v, h))
+    };
+    w.d = sub(caught, w.x);
+    w.x = caught;
+    true
 }
 
 /// What a round changed at one node.

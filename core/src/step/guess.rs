@@ -59,12 +59,16 @@ pub(super) fn carry(
     n_elems: usize,
 ) -> Carry {
     let share = |body: &Rigid| ctx.share(body, elems, n_elems);
+    #[cfg(feature = "ground")]
+    let start = ctx.start.map(|(body, _)| body);
+    #[cfg(not(feature = "ground"))]
+    let start = None;
     contact::carry(
         ctx.ground,
         held,
         ctx.any_fixed,
         ctx.fall,
-        ctx.start,
+        start,
         nodes,
         share,
     )

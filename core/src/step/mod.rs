@@ -88,10 +88,30 @@ pub(crate) struct Ctx {
     /// [`wave`](crate::rigid::wave) `(c h / L)²`, where the detect stage
     /// needed them (the nodes do not move until the commit: every later
     /// stage's body at the start is this one, bit for bit).
+    #[cfg(feature = "ground")]
     pub(crate) start: Option<(crate::rigid::Rigid, f32)>,
 }
 
 impl Ctx {
+    /// The start body's [`wave`](crate::rigid::wave) `(c h / L)²`: the
+    /// detect stage's where it has one, else found here (0 for a body
+    /// without mass).
+    #[inline(always)]
+    pub(crate) fn wave(
+        &self,
+        nodes: &[crate::storage::Node],
+        elems: &[crate::element::ElementBlock],
+        n_elems: usize,
+    ) -> f32 {
+        #[cfg(feature = "ground")]
+        if let Some((_, ratio2)) = self.start {
+            return ratio2;
+        }
+        crate::rigid::Rigid::new(nodes, true).map_or(0.0, |body| {
+            crate::rigid::wave(&body, elems, n_elems, self.per_young, self.h)
+        })
+    }
+
     /// The share of the start body `body` that moves as one over the step
     /// ([`reach`](crate::rigid::reach)), from the detect stage's wave where
     /// it has one.
@@ -102,10 +122,11 @@ impl Ctx {
         elems: &[crate::element::ElementBlock],
         n_elems: usize,
     ) -> f32 {
-        match self.start {
-            Some((_, ratio2)) => crate::rigid::share(ratio2),
-            None => crate::rigid::reach(body, elems, n_elems, self.per_young, self.h),
+        #[cfg(feature = "ground")]
+        if let Some((_, ratio2)) = self.start {
+            return crate::rigid::share(ratio2);
         }
+        crate::rigid::reach(body, elems, n_elems, self.per_young, self.h)
     }
 
     #[inline(always)]
@@ -128,6 +149,7 @@ impl Ctx {
             rotations: matches!(s.method, crate::Method::Qr | crate::Method::QrInvertible),
             ground: hdr.ground(),
             isolated: false,
+            #[cfg(feature = "ground")]
             start: None,
         }
     }
@@ -179,7 +201,17 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
 
     // The solve, the momentum fix, the push's relaxation.
     let sys = solve::system(b, hdr, &ctx, &probes, nodes, elems, n_elems);
-    let mut solved = solve::solve(&sys, &ctx, kind, &mut pre, correction.as_ref(), nodes, work)?;
+    let iterations = ctx.s.cg_iterations;
+    let mut solved = solve::solve(
+        &sys,
+        &ctx,
+        kind,
+        &mut pre,
+        correction.as_ref(),
+        iterations,
+        nodes,
+        work,
+    )?;
     solve::cone(
         b,
         hdr,
@@ -229,7 +261,7 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
         galerkin: !outcome.certified,
         cg_residual: outcome.residual,
         inverted: totals.inverted,
-        contacts: held.held,
+        contacts: held.held + solved.caught,
         tool_force: forces.tool,
         support_force: scale(forces.support, 1.0 / h),
         elastic_energy: if cfg!(feature = "diagnostics") {
