@@ -135,8 +135,8 @@ fn a_block_slides_above_the_friction_angle() {
 }
 
 /// Coulomb's law across coefficients and angles, with the default
-/// settings: the 4 × 4 × 2 cm block (E = 100 kPa, meshes of 5- and 6-tet
-/// cells, dt 1 ms) at μ 0.1, 0.3 and 0.5 and slopes from 5° below to 25°
+/// settings: the 4 × 4 × 2 cm block (E = 100 kPa and 10 MPa, meshes of 5-
+/// and 6-tet cells, dt 1 ms) at μ 0.1, 0.3 and 0.5 and slopes from 5° below to 25°
 /// above the friction angle, for 0.5 s. Below the angle it stays (its
 /// centre moves less than 10 µm over the second half, where a slip would
 /// be millimetres); above, its acceleration over the second half is
@@ -148,13 +148,13 @@ fn a_block_slides_above_the_friction_angle() {
 fn coulombs_law_holds_across_coefficients_and_angles() {
     let mut worst_cone = 0.0f64;
     let mut worst_accel = 0.0f64;
-    for tets in [5u8, 6] {
+    for (young, tets) in [(1.0e5f32, 5u8), (1.0e5, 6), (1.0e7, 5), (1.0e7, 6)] {
         for mu in [0.1f32, 0.3, 0.5] {
             for off in [-5.0f32, 5.0, 15.0, 25.0] {
                 let theta = (mu.atan().to_degrees() + off).to_radians();
                 let mesh = box_mesh([0.04, 0.04, 0.02], [4, 4, 2], tets);
                 let mut scene = mesh.scene(&Material {
-                    young: 1.0e5,
+                    young,
                     poisson: 0.3,
                     density: 1000.0,
                 });
@@ -172,7 +172,7 @@ fn coulombs_law_holds_across_coefficients_and_angles() {
                     let f = scene.step().unwrap().support_force.map(f64::from);
                     let tangent = f[0].hypot(f[1]);
                     let case = format!(
-                        "{tets}-tet cells, μ {mu}, {:.1}°, step {k}",
+                        "E {young}, {tets}-tet cells, μ {mu}, {:.1}°, step {k}",
                         theta.to_degrees()
                     );
                     // 1e-6 of the weight: the rounding of a sum of 25
@@ -197,7 +197,10 @@ fn coulombs_law_holds_across_coefficients_and_angles() {
                     }
                 }
                 let (_, x, v) = centre(&scene);
-                let case = format!("{tets}-tet cells, μ {mu}, {:.1}°", theta.to_degrees());
+                let case = format!(
+                    "E {young}, {tets}-tet cells, μ {mu}, {:.1}°",
+                    theta.to_degrees()
+                );
                 let t = f64::from(theta);
                 let expect = f64::from(G) * (t.sin() - f64::from(mu) * t.cos());
                 if off < 0.0 {
