@@ -226,25 +226,12 @@ impl Turn {
     }
 }
 
-/// How much of a body moves as one during a step of length `h`: the
-/// distance `c h` a pressure wave travels, over the body's radius of
-/// gyration `L = √(tr I / 2M)`, at most 1. `c² = (λ + 2μ) / ρ` with the
-/// volume-weighted mean Young's modulus, `Σ E V / Σ V`, and `ρ = M / Σ V`:
-/// `c² = (λ' + 2μ') Σ E V / M` (`λ'`, `μ'` per unit `E`). An element's
-/// `E V` is its stored `E / (36 V₀)` times `(6 V₀)²`. The limit of the
-/// rigid part of an impact: a body without stiffness (`c = 0`) takes none,
-/// each node lands alone; a stiff body over a long step lands whole.
-pub(crate) fn reach(
-    body: &Rigid,
-    elems: &[crate::element::ElementBlock],
-    n_elems: usize,
-    per_young: [f32; 2],
-    h: f32,
-) -> f32 {
-    share(wave(body, elems, n_elems, per_young, h))
-}
-
-/// [`reach`] from the body's [`wave`] `ratio2`.
+/// How much of a body moves as one during a step of length `h`, from its
+/// [`wave`] `ratio2 = (c h / L)²`: the distance `c h` a pressure wave
+/// travels over the body's radius of gyration `L = √(tr I / 2M)`, capped
+/// at one. The limit of the rigid part of an impact: a body without
+/// stiffness (`c = 0`) takes none, each node lands alone; a stiff body over
+/// a long step lands whole.
 #[inline(always)]
 pub(crate) fn share(ratio2: f32) -> f32 {
     if ratio2 >= 1.0 {
@@ -255,8 +242,11 @@ pub(crate) fn share(ratio2: f32) -> f32 {
 }
 
 /// `(c h / L)²`, the square of the distance a pressure wave travels in a
-/// step over the body's radius of gyration ([`reach`], uncapped; 0 for a
-/// body without inertia).
+/// step over the body's radius of gyration ([`share`], uncapped; 0 for a
+/// body without inertia). `c² = (λ + 2μ) / ρ` with the volume-weighted
+/// mean Young's modulus, `Σ E V / Σ V`, and `ρ = M / Σ V`:
+/// `c² = (λ' + 2μ') Σ E V / M` (`λ'`, `μ'` per unit `E`). An element's
+/// `E V` is its stored `E / (36 V₀)` times `(6 V₀)²`.
 pub(crate) fn wave(
     body: &Rigid,
     elems: &[crate::element::ElementBlock],

@@ -14,7 +14,7 @@ const TURN_ITERATIONS: u32 = 24;
 ///
 /// `x' = x + h v'` moves a body spinning at `ω` along its tangents, which
 /// stretches it by `(h |ω|)²/2` each step. A body that moves as one over
-/// the step (`share`, the [`reach`](crate::rigid::reach) of a pressure wave, is 1) takes that
+/// the step (`share`, the [`share`](crate::rigid::share) of a pressure wave, is 1) takes that
 /// stretch out again in the next step's solve: strain that no force asked
 /// for, whose energy a stiff body holds as long as it spins (at 20 rad/s
 /// with `dt` 10 ms, 2 % a step: for a nearly incompressible body, far more

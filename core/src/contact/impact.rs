@@ -28,7 +28,7 @@ const HELD: f32 = 1e4;
 ///   landing. Held nodes that the motion would push into the ground keep
 ///   their normal velocity; those it lifts may lift off.
 /// * **How far.** The body's share `share(body)` that moves as one over the
-///   step ([`reach`](crate::rigid::reach)): none without stiffness, all of a stiff one. Within
+///   step ([`share`](crate::rigid::share)): none without stiffness, all of a stiff one. Within
 ///   it, only as far as the energy falls: with `Δ` the motion, the kinetic
 ///   energy changes by `s Σ m v·Δ + ½ s² Σ m Δ²`, least at
 ///   `s = −Σ m v·Δ / Σ m Δ²`. For a body the ground held at the step's

@@ -8,7 +8,7 @@ use crate::rigid::Rigid;
 use crate::storage::Node;
 
 /// The push out of the ground of a body that the ground alone holds, and
-/// that moves as one over the step (its [`reach`](crate::rigid::reach) is 1), as one rigid
+/// that moves as one over the step (its [`share`](crate::rigid::share) is 1), as one rigid
 /// motion: the plane's ([`PlaneFit`]) of least kinetic energy
 /// that moves every held node at least as far out as its own push
 /// (`−dist/h` along the normal over the step, `dist` its distance to the

@@ -426,7 +426,7 @@ pub(crate) struct Carry {
 ///   a truncated solve resolves. (From the free fall it would have to stop
 ///   the whole body through the layer above the held nodes.)
 /// * **The push.** Nodes the ground pushes out, of a body it alone holds
-///   and that moves as one over the step ([`crate::rigid::reach`]): the
+///   and that moves as one over the step ([`crate::rigid::share`]): the
 ///   push is the rigid lift that takes every held node at least to the
 ///   plane (`Lift`), not each node to the plane on its own.
 ///
@@ -786,7 +786,7 @@ const DRAG_TOLERANCE: f32 = 1e-2;
 ///   negative height holds nothing. (Whether it stays held is the
 ///   contact's rule after the solve.)
 /// * with `catch`, a free node that the solve takes below a ground with
-///   friction by the step's end is held from this round on ([`catches`]).
+///   friction by the step's end is held from this round on ([`catchable`]).
 ///
 /// Every change keeps `r = b − A x` exact: a force adds `h` times itself to
 /// the residual, and a node that sticks again or is caught gets its
@@ -815,7 +815,8 @@ pub(crate) fn cone(
             w.d = [0.0; 3];
             let Some(c) = obstacles.holding(n) else {
                 if let Some(g) = &ground {
-                    if catches(g, n, w, h) {
+                    if let Some(start) = catchable(g, n, w, h) {
+                        catch_at(g, n, w, start, h);
                         round.changed += 1;
                         round.moved += 1;
                         round.caught += 1;
@@ -836,13 +837,36 @@ pub(crate) fn cone(
     round
 }
 
+/// Whether some free node would be caught by the ground with friction
+/// (`catchable`): the rounds find the body's stiffness, a pass over the
+/// elements, only then.
+#[cfg(feature = "friction")]
+#[inline(always)]
+pub(crate) fn any_catchable(
+    obstacles: Obstacles<'_>,
+    nodes: &[Node],
+    work: &[NodeWork],
+    h: f32,
+) -> bool {
+    let Some(g) = obstacles.ground.map(|g| obstacles.ground_contact(g)) else {
+        return false;
+    };
+    g.friction.sticks()
+        && nodes
+            .iter()
+            .zip(work.iter())
+            .any(|(n, w)| n.flags & CONTACT == 0 && catchable(&g, n, w, h).is_some())
+}
+
 /// The catch of a round (`cone`): a free node (not fixed, not held) that
 /// starts the step on or above the ground's plane `g` and that the solve's
 /// velocity change so far `x` takes below it by the step's end is held
 /// from this round on, as the detect stage would hold it next step: its
 /// normal velocity change prescribed so that it ends on the plane, and
 /// sticking, unless the ground released it for pulling in the last step
-/// (it slides then, from the next round). Returns whether it was caught.
+/// (it slides then, from the next round). `catchable` gives a free node's
+/// distance from the plane at the start if it is to be caught; `catch_at`
+/// holds it.
 ///
 /// Left for after the solve, such a node is stopped along the normal alone
 /// (`land`): an impulse without friction. A soft block sliding past its
@@ -851,15 +875,19 @@ pub(crate) fn cone(
 /// of it: it slides faster than Coulomb's law allows (docs/contact.md).
 #[cfg(feature = "friction")]
 #[inline(always)]
-fn catches(g: &Contact, n: &mut Node, w: &mut NodeWork, h: f32) -> bool {
+fn catchable(g: &Contact, n: &Node, w: &NodeWork, h: f32) -> Option<f32> {
     if n.flags & FIXED != 0 {
-        return false;
+        return None;
     }
     let x = n.position();
     let start = g.distance(x);
-    if !(start >= 0.0) || g.distance(axpy(x, h, add(n.v, w.x))) >= 0.0 {
-        return false;
-    }
+    (start >= 0.0 && g.distance(axpy(x, h, add(n.v, w.x))) < 0.0).then_some(start)
+}
+
+/// `catchable`'s node `n`, at distance `start`, held ([`catchable`]).
+#[cfg(feature = "friction")]
+#[inline(always)]
+fn catch_at(g: &Contact, n: &mut Node, w: &mut NodeWork, start: f32, h: f32) {
     n.flags |= CONTACT;
     n.contact = ON_GROUND;
     let caught = if n.flags & RELEASED == 0 {
@@ -870,7 +898,6 @@ fn catches(g: &Contact, n: &mut Node, w: &mut NodeWork, h: f32) -> bool {
     };
     w.d = sub(caught, w.x);
     w.x = caught;
-    true
 }
 
 /// What a round changed at one node.

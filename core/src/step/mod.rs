@@ -93,9 +93,10 @@ pub(crate) struct Ctx {
 }
 
 impl Ctx {
-    /// The start body's [`wave`](crate::rigid::wave) `(c h / L)²`: the
-    /// detect stage's where it has one, else found here (0 for a body
-    /// without mass).
+    /// The start body's [`wave`](crate::rigid::wave) `(c h / L)²` (0 for a
+    /// body without mass), for a stage that needs it where the detect stage
+    /// did not find it (`start` is `None`; else `wave_of` gives it without
+    /// the body).
     #[inline(always)]
     pub(crate) fn wave(
         &self,
@@ -103,17 +104,28 @@ impl Ctx {
         elems: &[crate::element::ElementBlock],
         n_elems: usize,
     ) -> f32 {
+        crate::rigid::Rigid::new(nodes, true)
+            .map_or(0.0, |body| self.wave_of(&body, elems, n_elems))
+    }
+
+    /// The [`wave`](crate::rigid::wave) of `body`, the start body: the
+    /// detect stage's where it has one.
+    #[inline(always)]
+    fn wave_of(
+        &self,
+        body: &crate::rigid::Rigid,
+        elems: &[crate::element::ElementBlock],
+        n_elems: usize,
+    ) -> f32 {
         #[cfg(feature = "ground")]
         if let Some((_, ratio2)) = self.start {
             return ratio2;
         }
-        crate::rigid::Rigid::new(nodes, true).map_or(0.0, |body| {
-            crate::rigid::wave(&body, elems, n_elems, self.per_young, self.h)
-        })
+        crate::rigid::wave(body, elems, n_elems, self.per_young, self.h)
     }
 
     /// The share of the start body `body` that moves as one over the step
-    /// ([`reach`](crate::rigid::reach)), from the detect stage's wave where
+    /// ([`share`](crate::rigid::share)), from the detect stage's wave where
     /// it has one.
     #[inline(always)]
     pub(crate) fn share(
@@ -122,11 +134,7 @@ impl Ctx {
         elems: &[crate::element::ElementBlock],
         n_elems: usize,
     ) -> f32 {
-        #[cfg(feature = "ground")]
-        if let Some((_, ratio2)) = self.start {
-            return crate::rigid::share(ratio2);
-        }
-        crate::rigid::reach(body, elems, n_elems, self.per_young, self.h)
+        crate::rigid::share(self.wave_of(body, elems, n_elems))
     }
 
     #[inline(always)]
@@ -201,14 +209,13 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
 
     // The solve, the momentum fix, the push's relaxation.
     let sys = solve::system(b, hdr, &ctx, &probes, nodes, elems, n_elems);
-    let iterations = ctx.s.cg_iterations;
     let mut solved = solve::solve(
         &sys,
         &ctx,
         kind,
         &mut pre,
         correction.as_ref(),
-        iterations,
+        ctx.s.cg_iterations,
         nodes,
         work,
     )?;

@@ -209,18 +209,25 @@ pub(super) fn cone<B: Backend>(
     // iterations to carry through it. Such a body's landings are stopped
     // whole after the solve (`contact::impact`); a softer one's nodes are
     // caught by a ground with friction within the rounds (`contact::cone`).
-    // Found once, where a catch or a round's solve needs it.
+    // Found once, where a node is to be caught or a round's solve needs it.
+    // (The detect stage's, where it found the start body: free.)
+    #[cfg(feature = "ground")]
+    let mut stiff = ctx.start.map(|(_, ratio2)| ratio2 > 1.0);
+    #[cfg(not(feature = "ground"))]
     let mut stiff: Option<bool> = None;
-    #[cfg(feature = "friction")]
-    let catching = !ctx.isolated && ctx.ground.friction.sticks();
-    #[cfg(not(feature = "friction"))]
-    let catching = false;
     let mut iterations = ctx.s.cg_iterations;
     for _ in 0..ctx.s.contact_rounds {
-        if catching && stiff.is_none() {
+        // A pass over the nodes for a catch only while the stiffness is
+        // unknown, so that a body none of whose nodes lands pays no pass
+        // over the elements for it.
+        #[cfg(feature = "friction")]
+        if stiff.is_none()
+            && !ctx.isolated
+            && crate::contact::any_catchable(Obstacles::new(ctx.ground, probes), nodes, work, ctx.h)
+        {
             stiff = Some(ctx.wave(nodes, elems, n_elems) > 1.0);
         }
-        let catch = catching && stiff == Some(false);
+        let catch = !ctx.isolated && stiff == Some(false);
         let obstacles = Obstacles::new(ctx.ground, probes);
         let round = crate::contact::cone(obstacles, nodes, work, ctx.h, catch);
         solved.caught += round.caught;
