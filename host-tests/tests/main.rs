@@ -24,6 +24,7 @@ mod preconditioners;
 mod probe;
 mod properties;
 mod reliability;
+mod resting;
 mod robustness;
 mod static_scene;
 mod statics;

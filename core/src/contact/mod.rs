@@ -37,6 +37,8 @@ mod plane_fit;
 pub(crate) mod probe;
 #[cfg(feature = "ground")]
 mod relax;
+#[cfg(feature = "ground")]
+pub(crate) mod whole;
 
 use crate::math::Vec3;
 #[cfg(feature = "ground")]
@@ -389,16 +391,55 @@ pub(crate) fn detect(
         }
     } else {
         // No node is held (flags left by an earlier step).
-        for n in nodes.iter_mut() {
-            n.flags &= !CONTACT;
-            #[cfg(feature = "friction")]
-            {
-                n.flags &= !STUCK;
-            }
-        }
+        clear(nodes);
     }
     let _ = (obstacles, nodes, work, h);
     held
+}
+
+/// Whether the ground's contact may be the whole body's
+/// ([`whole::solve`]): a ground, no probe, no fixed node, no tool, and a
+/// node the ground held last step or that a step's fall from its velocity
+/// takes to the plane.
+#[cfg(feature = "ground")]
+#[inline(always)]
+pub(crate) fn whole_candidate(
+    ground: Ground,
+    probes: &Probes<'_>,
+    hdr: &crate::state::Header,
+    any_fixed: bool,
+    nodes: &[Node],
+) -> bool {
+    let Some(g) = ground.plane else {
+        return false;
+    };
+    #[cfg(feature = "probe")]
+    if !probes.list.is_empty() {
+        return false;
+    }
+    let _ = probes;
+    if any_fixed || hdr.spring().active() {
+        return false;
+    }
+    let c = Contact::still(g);
+    let h = ground.h;
+    nodes.iter().any(|n| {
+        let reach = c.distance(n.position()) + h * dot(c.normal, n.v).min(0.0) - h * ground.settle;
+        on_ground(n) || reach <= 0.0
+    })
+}
+
+/// Clears every node's contact flags: nothing holds a node this step.
+#[cfg(feature = "ground")]
+#[inline(always)]
+pub(crate) fn clear(nodes: &mut [Node]) {
+    for n in nodes.iter_mut() {
+        n.flags &= !CONTACT;
+        #[cfg(feature = "friction")]
+        {
+            n.flags &= !STUCK;
+        }
+    }
 }
 
 /// The ground's rigid helpers for a body that the ground holds and no
@@ -995,6 +1036,28 @@ pub(crate) fn commit(n: &mut Node, w: &mut NodeWork) {
                 w.drag = w.reaction;
             }
         }
+    }
+}
+
+/// The commit of node `n`'s contact flags after the whole body's contact
+/// ([`whole::solve`]): a node that ends on the plane (where the step
+/// `solved` it) is marked held, with `pull = −λₙ` (its impulse in `dv`),
+/// so that the next step knows the body rests; nothing slides on.
+#[cfg(feature = "ground")]
+#[inline(always)]
+pub(crate) fn commit_whole(n: &mut Node, w: &mut NodeWork, normal: Vec3, solved: bool) {
+    n.flags &= !(RELEASED | CONTACT);
+    w.pull = 0.0;
+    if solved && whole::touching(w) {
+        n.flags |= CONTACT;
+        n.contact = ON_GROUND;
+        w.pull = -dot(normal, w.dv);
+    }
+    #[cfg(feature = "friction")]
+    {
+        n.flags &= !STUCK;
+        w.drag = [0.0; 3];
+        w.reaction = [0.0; 3];
     }
 }
 

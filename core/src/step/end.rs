@@ -21,6 +21,8 @@ pub(super) struct End {
     below: bool,
     /// The ground's impulse of a landing body's rigid stop.
     support: Vec3,
+    /// The nodes the ground presses in the whole body's contact.
+    pub(super) pressed: u32,
 }
 
 /// The candidates stage: `v' = v + Δv` and `u' = u + h v'` of every node
@@ -39,6 +41,7 @@ pub(super) fn candidates(ctx: &Ctx, held: &Held, nodes: &[Node], work: &mut [Nod
     End {
         below,
         support: [0.0; 3],
+        pressed: 0,
     }
 }
 
@@ -89,6 +92,21 @@ pub(super) fn impact(
     work: &mut [NodeWork],
 ) {
     let _ = (ctx, held, carry, &end, nodes, elems, n_elems, &work);
+    #[cfg(feature = "ground")]
+    if let (Some(g), true, true, Some((body, _))) =
+        (ctx.ground.plane, end.below, ctx.whole, ctx.start)
+    {
+        #[cfg(feature = "friction")]
+        let mu = (
+            ctx.ground.friction.static_coefficient(),
+            ctx.ground.friction.kinetic_coefficient(),
+        );
+        #[cfg(not(feature = "friction"))]
+        let mu = (0.0, 0.0);
+        (end.support, end.pressed) =
+            contact::whole::solve(g, mu, ctx.h, ctx.s.gravity, &body, nodes, work);
+        return;
+    }
     #[cfg(feature = "ground")]
     if let (Some(g), true, false) = (ctx.ground.plane, end.below, ctx.any_fixed) {
         let share = |body: &crate::rigid::Rigid| ctx.share(body, elems, n_elems);
@@ -196,15 +214,33 @@ pub(super) fn impulses(
 /// the probes' forces, and the aggregates' rotations.
 #[inline(always)]
 pub(super) fn commit(
+    ctx: &Ctx,
+    pressed: u32,
     nodes: &mut [Node],
     work: &mut [NodeWork],
     probes: &mut Probes<'_>,
     pre: &mut PreSlots<'_>,
     h: f32,
 ) {
-    for (n, w) in nodes.iter_mut().zip(work.iter_mut()) {
-        (n.u, n.v) = w.end();
-        contact::commit(n, w);
+    #[cfg(feature = "ground")]
+    if let (true, Some(g)) = (ctx.whole, ctx.ground.plane) {
+        for (n, w) in nodes.iter_mut().zip(work.iter_mut()) {
+            (n.u, n.v) = w.end();
+            contact::commit_whole(n, w, g.normal, pressed > 0);
+        }
+    } else {
+        for (n, w) in nodes.iter_mut().zip(work.iter_mut()) {
+            (n.u, n.v) = w.end();
+            contact::commit(n, w);
+        }
+    }
+    #[cfg(not(feature = "ground"))]
+    {
+        let _ = (ctx, pressed);
+        for (n, w) in nodes.iter_mut().zip(work.iter_mut()) {
+            (n.u, n.v) = w.end();
+            contact::commit(n, w);
+        }
     }
     contact::commit_probes(probes, h);
     let _ = &pre;

@@ -42,6 +42,23 @@ pub(super) fn detect(
             ground.settle /= ratio2;
         }
     }
+    // A body that moves as one over the step and that only the ground can
+    // hold: its contact is solved whole (`contact::whole`).
+    #[cfg(feature = "ground")]
+    if contact::whole_candidate(ground, probes, hdr, ctx.any_fixed, nodes) {
+        if ctx.start.is_none() {
+            ctx.start = Rigid::new(nodes, true).map(|body| {
+                let ratio2 = crate::rigid::wave(&body, elems, n_elems, ctx.per_young, ctx.h);
+                (body, ratio2)
+            });
+        }
+        ctx.whole = ctx.start.is_some_and(|(_, r)| r >= 1.0);
+        if ctx.whole {
+            contact::clear(nodes);
+            ctx.isolated = true;
+            return Held::default();
+        }
+    }
     let obstacles = Obstacles::new(ground, probes);
     let held = contact::detect(obstacles, nodes, work, ctx.h);
     // The grabbed nodes hold the body (a grab lists at least one node).
@@ -98,7 +115,10 @@ pub(super) struct Guess {
 ///
 /// A warm guess with held normals can start the solve worse than no guess
 /// (the normals are prescribed, and a truncated solve from there cannot
-/// undo them): steps with contacts start cold. So does the step after one
+/// undo them): steps with contacts start cold, and so do those of a body
+/// whose contact is solved whole (`contact::whole`: the solve's velocity
+/// change, carried from step to step in a resting body, kept its
+/// unconverged modes and strained the body more each step). So does the step after one
 /// whose solve had no energy certificate at its budget: there the
 /// linearised step is far from the motion (a stiff body yanked by the
 /// tool, elements turning over), the last velocity change is no estimate of
@@ -118,7 +138,11 @@ pub(super) fn guess(
     work: &mut [NodeWork],
 ) -> Guess {
     let (h, isolated, fall) = (ctx.h, ctx.isolated, ctx.fall);
-    let warm = ctx.s.warm_start && held.held == 0 && !hdr.guess_stale;
+    #[cfg(feature = "ground")]
+    let touching = held.held > 0 || ctx.whole;
+    #[cfg(not(feature = "ground"))]
+    let touching = held.held > 0;
+    let warm = ctx.s.warm_start && !touching && !hdr.guess_stale;
     // An isolated body's rigid motions: translations, which `K` annihilates
     // bit for bit in every method, and, for `Qr`, whose `B` is that of the
     // current shape, rotations about the current shape too. The solve keeps

@@ -90,6 +90,11 @@ pub(crate) struct Ctx {
     /// stage's body at the start is this one, bit for bit).
     #[cfg(feature = "ground")]
     pub(crate) start: Option<(crate::rigid::Rigid, f32)>,
+    /// The ground's contact is the whole body's (`contact::whole`): a body
+    /// that moves as one over the step, that nothing but the ground can
+    /// hold, near the plane (set by the detect stage).
+    #[cfg(feature = "ground")]
+    pub(crate) whole: bool,
 }
 
 impl Ctx {
@@ -159,6 +164,8 @@ impl Ctx {
             isolated: false,
             #[cfg(feature = "ground")]
             start: None,
+            #[cfg(feature = "ground")]
+            whole: false,
         }
     }
 }
@@ -244,6 +251,7 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
     let mut end = end::candidates(&ctx, &held, nodes, work);
     end::turn(&ctx, &solved, &mut end, nodes, elems, n_elems, work);
     end::impact(&ctx, &held, &carry, &mut end, nodes, elems, n_elems, work);
+    let pressed = end.pressed;
     let forces = end::impulses(
         hdr,
         &ctx,
@@ -257,7 +265,7 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
     )?;
 
     // Commit: the state, the contacts' flags, the guard's reference.
-    end::commit(nodes, work, &mut probes, &mut pre, h);
+    end::commit(&ctx, pressed, nodes, work, &mut probes, &mut pre, h);
     let outcome = solved.outcome;
     hdr.time += f64::from(h);
     hdr.guess_stale = outcome.iterations > ctx.s.cg_iterations || !outcome.certified;
@@ -268,7 +276,7 @@ fn step_inline<B: Backend>(b: B, v: View<'_>) -> Result<StepStats, StepError> {
         galerkin: !outcome.certified,
         cg_residual: outcome.residual,
         inverted: totals.inverted,
-        contacts: held.held + solved.caught,
+        contacts: held.held + solved.caught + pressed,
         tool_force: forces.tool,
         support_force: scale(forces.support, 1.0 / h),
         elastic_energy: if cfg!(feature = "diagnostics") {

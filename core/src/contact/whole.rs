@@ -1,0 +1,262 @@
+//! The ground's contact with a body that moves as one over the step: its
+//! impulses solved as Coulomb contact constraints on the body's rigid
+//! motion.
+
+use super::ground::{Contact, Plane};
+use crate::math::{add, axpy, cross, dot, mat_vec, normalize, scale, solve3, sub, Mat3, Vec3};
+use crate::rigid::{Rigid, Turn};
+use crate::storage::{Node, NodeWork};
+
+/// Sweeps of projected Gauss–Seidel over the contact rows, at most. Each
+/// sweep is a pass over the nodes with a few dozen flops at each node near
+/// the plane; the sweeps stop once no impulse moves by more than
+/// [`TOLERANCE`] of the weight's impulse over the step.
+const SWEEPS: u32 = 200;
+
+/// The sweeps' end: the largest change of a node's impulse in a sweep, in
+/// units of `M (|g| h + |v|)` (the impulse that stops the whole body):
+/// well above f32's rounding of the sums (ε ≈ 1.2e-7 times the number of
+/// terms), well below what moves a node by a rounding of its position.
+const TOLERANCE: f32 = 1e-6;
+
+/// Rounds of the candidate set: nodes that the rows' motion takes below
+/// the plane join, at most this many times.
+const ROUNDS: u32 = 4;
+
+/// A contact row's per-node state, in the slots of [`NodeWork`] that the
+/// step has spent by its end: the node's impulse so far in `dv` (`x` keeps the velocity change, the
+/// next step's warm start), and in `r`
+/// the bound on its normal velocity, whether it is a row, and its friction
+/// coefficient.
+#[inline(always)]
+fn is_row(w: &NodeWork) -> bool {
+    w.r[1] != 0.0
+}
+
+/// `r[1]` of a row that ends the step on the plane.
+const TOUCHING: f32 = 2.0;
+
+/// Whether node `w` ends the last [`solve`] on the plane, pressed by it
+/// or touching it.
+#[inline(always)]
+pub(crate) fn touching(w: &NodeWork) -> bool {
+    w.r[1] == TOUCHING
+}
+
+/// The ground's contact with a body no fixed node, tool or probe holds and
+/// that a pressure wave crosses within the step ([`crate::rigid::share`]
+/// is 1): each node that ends the free step near or below the plane is a
+/// contact row, whose impulse `λ` (normal `λₙ ≥ 0`, tangential
+/// `|λₜ| ≤ μ λₙ`) moves the body rigidly, by `(Σ λ / M, I⁻¹ Σ r × λ)`.
+/// The rows are solved by projected Gauss–Seidel (the sequential impulses
+/// of Box2D's contact solver, without its softening: a stiff body's
+/// contacts are hard):
+///
+/// * **Non-penetration.** A node's normal velocity after the motion ends
+///   it on or above the plane: `n·v' ≥ n·v − d/h`, `d` its distance from
+///   the plane at the free step's end. Complementary: `λₙ > 0` only where
+///   the node ends on the plane.
+/// * **Coulomb.** A node's tangential velocity after the motion is zero
+///   where `|λₜ| ≤ μs λₙ` holds it; where that cannot, it slides, with
+///   `|λₜ| = μk λₙ` against its slip (a row found sliding in a sweep is
+///   bounded by `μk` from then on).
+///
+/// The deformation the impulses would cause is left out: the body answers
+/// them as a whole within the step (the share 1), and its strain under its
+/// own weight, `g L / c²`, is below the strain `(g h²)/L` of a node moved by
+/// a step's fall. Nodes that the motion would take below the plane join as
+/// rows, at most [`ROUNDS`] times. The motion is applied as the impact's
+/// is (`contact::impact`): positions turned about the centre of mass at the
+/// step's end by the Cayley rotation, shape unchanged. Returns the impulse
+/// of the ground and the number of nodes that end on the plane.
+///
+/// `work` holds the step's end ([`NodeWork::end`]); `body` is the body at
+/// the step's start, with its inertia; `mu` the static and kinetic
+/// coefficients (zero without friction).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn solve(
+    g: Plane,
+    mu: (f32, f32),
+    h: f32,
+    gravity: Vec3,
+    body: &Rigid,
+    nodes: &[Node],
+    work: &mut [NodeWork],
+) -> (Vec3, u32) {
+    let Some(inertia) = body.inertia else {
+        return ([0.0; 3], 0);
+    };
+    let Some(inv_inertia) = invert(&inertia) else {
+        return ([0.0; 3], 0);
+    };
+    let plane = Contact::still(g);
+    let n = g.normal;
+    let (t1, t2) = tangents(n);
+    let inv_mass = body.inv_mass;
+    // The impulse scale: what stops the body falling at its speed plus a
+    // step's gravity.
+    let mut speed2 = 0.0f32;
+    for w in work.iter() {
+        let v = w.end().1;
+        speed2 = speed2.max(dot(v, v));
+    }
+    let scale_impulse =
+        (crate::math::sqrt(dot(gravity, gravity)) * h + crate::math::sqrt(speed2)) / inv_mass;
+    let tol = TOLERANCE * scale_impulse;
+    // Nodes within a step's fall of the plane are rows from the start.
+    let margin = h * crate::math::sqrt(speed2) + h * h * crate::math::sqrt(dot(gravity, gravity));
+    for (node, w) in nodes.iter().zip(work.iter_mut()) {
+        let (u, v) = w.end();
+        let d = plane.distance(add(node.x0, u));
+        w.dv = [0.0; 3];
+        w.r = if d < margin {
+            [dot(n, v) - d / h, 1.0, mu.0]
+        } else {
+            [0.0; 3]
+        };
+    }
+    let (mut dv, mut dw) = ([0.0f32; 3], [0.0f32; 3]);
+    // The body's response at arm `r` to an impulse along unit `k`.
+    let response = |r: Vec3, k: Vec3| {
+        let rk = cross(r, k);
+        inv_mass + dot(rk, mat_vec(&inv_inertia, rk))
+    };
+    for _ in 0..ROUNDS {
+        for _ in 0..SWEEPS {
+            let mut change = 0.0f32;
+            for (node, w) in nodes.iter().zip(work.iter_mut()) {
+                if !is_row(w) {
+                    continue;
+                }
+                let r = sub(node.position(), body.c);
+                let v = add(w.end().1, add(dv, cross(dw, r)));
+                let lambda = w.dv;
+                let ln = dot(n, lambda);
+                let mut next = lambda;
+                // Friction first, bounded by the normal impulse so far;
+                // the normal row last (it matters most).
+                let cone = w.r[2] * ln;
+                if cone > 0.0 {
+                    let lt = sub(lambda, scale(n, ln));
+                    let a = -dot(t1, v) / response(r, t1);
+                    let b = -dot(t2, v) / response(r, t2);
+                    let mut lt2 = add(lt, add(scale(t1, a), scale(t2, b)));
+                    let size2 = dot(lt2, lt2);
+                    if size2 > cone * cone {
+                        lt2 = scale(lt2, cone / crate::math::sqrt(size2));
+                        // Sliding: the kinetic bound from now on.
+                        w.r[2] = mu.1;
+                    }
+                    next = add(scale(n, ln), lt2);
+                } else if mu.0 > 0.0 {
+                    next = scale(n, ln);
+                }
+                let moved = sub(next, lambda);
+                let (mut v2, mut lambda2) = (v, next);
+                if moved != [0.0; 3] {
+                    (dv, dw) = push(dv, dw, moved, r, inv_mass, &inv_inertia);
+                    v2 = add(w.end().1, add(dv, cross(dw, r)));
+                }
+                let dn = (w.r[0] - dot(n, v2)) / response(r, n);
+                let ln2 = (ln + dn).max(0.0);
+                let step_n = ln2 - ln;
+                if step_n != 0.0 {
+                    (dv, dw) = push(dv, dw, scale(n, step_n), r, inv_mass, &inv_inertia);
+                    lambda2 = axpy(lambda2, step_n, n);
+                }
+                let total = sub(lambda2, lambda);
+                change = change.max(total[0].abs() + total[1].abs() + total[2].abs());
+                w.dv = lambda2;
+            }
+            if !(change > tol) {
+                break;
+            }
+        }
+        // Nodes the motion takes below the plane join.
+        let mut joined = 0u32;
+        for (node, w) in nodes.iter().zip(work.iter_mut()) {
+            if is_row(w) {
+                continue;
+            }
+            let (u, v) = w.end();
+            let r = sub(node.position(), body.c);
+            let d = plane.distance(add(node.x0, u));
+            let moved = dot(n, add(dv, cross(dw, r)));
+            if d + h * moved < 0.0 {
+                w.r = [dot(n, v) - d / h, 1.0, mu.0];
+                w.dv = [0.0; 3];
+                joined += 1;
+            }
+        }
+        if joined == 0 {
+            break;
+        }
+    }
+    if !(dot(dv, dv) + dot(dw, dw) > 0.0) || !crate::math::is_finite3(add(dv, dw)) {
+        return ([0.0; 3], 0);
+    }
+    // The motion applied: u' = u + h (dv + dw × y) with y about the centre
+    // of mass at the step's end, the rotation made exact (Cayley).
+    let mut mc = [0.0f32; 3];
+    for (node, w) in nodes.iter().zip(work.iter()) {
+        mc = axpy(mc, node.mass, add(node.x0, w.end().0));
+    }
+    let c = scale(mc, inv_mass);
+    let turn = Turn::cayley(scale(dw, h));
+    let shift = scale(dv, h);
+    let (mut impulse, mut pressed) = ([0.0f32; 3], 0u32);
+    for (node, w) in nodes.iter().zip(work.iter_mut()) {
+        let r = sub(node.position(), body.c);
+        let (u, v) = w.end();
+        let ry = turn.apply(sub(add(node.x0, u), c));
+        let v2 = add(v, add(dv, cross(dw, r)));
+        w.set_end(sub(add(add(c, ry), shift), node.x0), v2);
+        if is_row(w) {
+            impulse = add(impulse, w.dv);
+            // On the plane: pressed, or left there by the motion (a flat
+            // face's nodes share its weight in any of many ways; those
+            // given none still touch).
+            let gap = h * (dot(n, v2) - w.r[0]);
+            if dot(n, w.dv) > 0.0 || gap <= g.rounding(add(node.x0, u)) {
+                w.r[1] = TOUCHING;
+                pressed += 1;
+            }
+        }
+    }
+    (impulse, pressed)
+}
+
+/// The rigid motion `(dv, dw)` after the impulse `p` at arm `r`.
+#[inline(always)]
+fn push(dv: Vec3, dw: Vec3, p: Vec3, r: Vec3, inv_mass: f32, inv_inertia: &Mat3) -> (Vec3, Vec3) {
+    (
+        axpy(dv, inv_mass, p),
+        add(dw, mat_vec(inv_inertia, cross(r, p))),
+    )
+}
+
+/// Two unit tangents of the plane with unit normal `n`, orthogonal.
+fn tangents(n: Vec3) -> (Vec3, Vec3) {
+    // The axis least along n, crossed with it.
+    let a = if n[0].abs() <= n[1].abs() && n[0].abs() <= n[2].abs() {
+        [1.0, 0.0, 0.0]
+    } else if n[1].abs() <= n[2].abs() {
+        [0.0, 1.0, 0.0]
+    } else {
+        [0.0, 0.0, 1.0]
+    };
+    let t1 = normalize(cross(n, a)).unwrap_or([0.0; 3]);
+    (t1, cross(n, t1))
+}
+
+/// `m⁻¹` by three solves, `None` for a singular `m`.
+fn invert(m: &Mat3) -> Option<Mat3> {
+    let c0 = solve3(m, [1.0, 0.0, 0.0])?;
+    let c1 = solve3(m, [0.0, 1.0, 0.0])?;
+    let c2 = solve3(m, [0.0, 0.0, 1.0])?;
+    Some([
+        [c0[0], c1[0], c2[0]],
+        [c0[1], c1[1], c2[1]],
+        [c0[2], c1[2], c2[2]],
+    ])
+}
