@@ -103,8 +103,9 @@ pub(crate) fn solve(
     let scale_impulse =
         (crate::math::sqrt(dot(gravity, gravity)) * h + crate::math::sqrt(speed2)) / inv_mass;
     let tol = TOLERANCE * scale_impulse;
-    // Nodes within a step's fall of the plane are rows from the start.
-    let margin = h * crate::math::sqrt(speed2) + h * h * crate::math::sqrt(dot(gravity, gravity));
+    // Nodes that the free step ends below the plane are rows from the
+    // start; those the motion takes below join later.
+    let margin = 0.0;
     for (node, w) in nodes.iter().zip(work.iter_mut()) {
         let (u, v) = w.end();
         let d = plane.distance(add(node.x0, u));
@@ -116,57 +117,29 @@ pub(crate) fn solve(
         };
     }
     let (mut dv, mut dw) = ([0.0f32; 3], [0.0f32; 3]);
-    // The body's response at arm `r` to an impulse along unit `k`.
-    let response = |r: Vec3, k: Vec3| {
-        let rk = cross(r, k);
-        inv_mass + dot(rk, mat_vec(&inv_inertia, rk))
+    let rows = Rows {
+        n,
+        t: (t1, t2),
+        c: body.c,
+        inv_mass,
+        inv_inertia,
+        kinetic: mu.1,
     };
     for _ in 0..ROUNDS {
+        // The rows, linked in node order.
+        let mut head = END;
+        for (i, w) in work.iter_mut().enumerate().rev() {
+            if is_row(w) {
+                w.inv_p = f32::from_bits(head);
+                head = i as u32;
+            }
+        }
         for _ in 0..SWEEPS {
             let mut change = 0.0f32;
-            for (node, w) in nodes.iter().zip(work.iter_mut()) {
-                if !is_row(w) {
-                    continue;
-                }
-                let r = sub(node.position(), body.c);
-                let v = add(w.end().1, add(dv, cross(dw, r)));
-                let lambda = w.dv;
-                let ln = dot(n, lambda);
-                let mut next = lambda;
-                // Friction first, bounded by the normal impulse so far;
-                // the normal row last (it matters most).
-                let cone = w.r[2] * ln;
-                if cone > 0.0 {
-                    let lt = sub(lambda, scale(n, ln));
-                    let a = -dot(t1, v) / response(r, t1);
-                    let b = -dot(t2, v) / response(r, t2);
-                    let mut lt2 = add(lt, add(scale(t1, a), scale(t2, b)));
-                    let size2 = dot(lt2, lt2);
-                    if size2 > cone * cone {
-                        lt2 = scale(lt2, cone / crate::math::sqrt(size2));
-                        // Sliding: the kinetic bound from now on.
-                        w.r[2] = mu.1;
-                    }
-                    next = add(scale(n, ln), lt2);
-                } else if mu.0 > 0.0 {
-                    next = scale(n, ln);
-                }
-                let moved = sub(next, lambda);
-                let (mut v2, mut lambda2) = (v, next);
-                if moved != [0.0; 3] {
-                    (dv, dw) = push(dv, dw, moved, r, inv_mass, &inv_inertia);
-                    v2 = add(w.end().1, add(dv, cross(dw, r)));
-                }
-                let dn = (w.r[0] - dot(n, v2)) / response(r, n);
-                let ln2 = (ln + dn).max(0.0);
-                let step_n = ln2 - ln;
-                if step_n != 0.0 {
-                    (dv, dw) = push(dv, dw, scale(n, step_n), r, inv_mass, &inv_inertia);
-                    lambda2 = axpy(lambda2, step_n, n);
-                }
-                let total = sub(lambda2, lambda);
-                change = change.max(total[0].abs() + total[1].abs() + total[2].abs());
-                w.dv = lambda2;
+            let mut i = head;
+            while let (Some(node), Some(w)) = (nodes.get(i as usize), work.get_mut(i as usize)) {
+                change = change.max(rows.sweep(node, w, &mut dv, &mut dw));
+                i = w.inv_p.to_bits();
             }
             if !(change > tol) {
                 break;
@@ -224,6 +197,82 @@ pub(crate) fn solve(
         }
     }
     (impulse, pressed)
+}
+
+/// The end of the rows' chain (in `NodeWork::inv_p`, the preconditioner's
+/// slot, spent by the step's end, as the bits of the next row's index).
+const END: u32 = u32::MAX >> 1;
+
+/// The body's rows: the plane's frame and the body's rigid response.
+struct Rows {
+    n: Vec3,
+    t: (Vec3, Vec3),
+    c: Vec3,
+    inv_mass: f32,
+    inv_inertia: Mat3,
+    kinetic: f32,
+}
+
+impl Rows {
+    /// The body's velocity response at arm `r` to a unit impulse along `k`.
+    #[inline(always)]
+    fn response(&self, r: Vec3, k: Vec3) -> f32 {
+        let rk = cross(r, k);
+        self.inv_mass + dot(rk, mat_vec(&self.inv_inertia, rk))
+    }
+
+    /// One Gauss–Seidel update of the row at `node`: its friction, then
+    /// its normal impulse, projected, with the body's motion `(dv, dw)`
+    /// moved by the change. Returns the change's size (`|Δλ|₁`).
+    #[inline(always)]
+    fn sweep(&self, node: &Node, w: &mut NodeWork, dv: &mut Vec3, dw: &mut Vec3) -> f32 {
+        let (n, (t1, t2)) = (self.n, self.t);
+        let r = sub(node.position(), self.c);
+        let v = add(w.end().1, add(*dv, cross(*dw, r)));
+        let lambda = w.dv;
+        let ln = dot(n, lambda);
+        // Friction first, bounded by the normal impulse so far; the normal
+        // row last (it matters most).
+        let cone = w.r[2] * ln;
+        let mut next = if cone > 0.0 {
+            let lt = sub(lambda, scale(n, ln));
+            let a = -dot(t1, v) / self.response(r, t1);
+            let b = -dot(t2, v) / self.response(r, t2);
+            let mut lt2 = add(lt, add(scale(t1, a), scale(t2, b)));
+            let size2 = dot(lt2, lt2);
+            if size2 > cone * cone {
+                lt2 = scale(lt2, cone / crate::math::sqrt(size2));
+                // Sliding: the kinetic bound from now on.
+                w.r[2] = self.kinetic;
+            }
+            add(scale(n, ln), lt2)
+        } else {
+            scale(n, ln)
+        };
+        let moved = sub(next, lambda);
+        let mut v2 = v;
+        if moved != [0.0; 3] {
+            (*dv, *dw) = push(*dv, *dw, moved, r, self.inv_mass, &self.inv_inertia);
+            v2 = add(w.end().1, add(*dv, cross(*dw, r)));
+        }
+        let dn = (w.r[0] - dot(n, v2)) / self.response(r, n);
+        let ln2 = (ln + dn).max(0.0);
+        let step_n = ln2 - ln;
+        if step_n != 0.0 {
+            (*dv, *dw) = push(
+                *dv,
+                *dw,
+                scale(n, step_n),
+                r,
+                self.inv_mass,
+                &self.inv_inertia,
+            );
+            next = axpy(next, step_n, n);
+        }
+        let total = sub(next, lambda);
+        w.dv = next;
+        total[0].abs() + total[1].abs() + total[2].abs()
+    }
 }
 
 /// The rigid motion `(dv, dw)` after the impulse `p` at arm `r`.
