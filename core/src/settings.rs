@@ -296,7 +296,9 @@ pub struct StepStats {
     pub cg_residual: f32,
     /// Elements with negative current volume, at the start of the step.
     pub inverted: u32,
-    /// Nodes held by the ground or a probe during the step.
+    /// Nodes held by the ground or a probe during the step; for a body
+    /// whose ground contact is solved whole (a stiff body only the ground
+    /// holds), the nodes that end the step on the plane.
     pub contacts: u32,
     /// Force the body exerts on the tool at the end of the step (N): what a
     /// haptic device renders. Zero without a tool.
