@@ -221,7 +221,9 @@ typedef struct {
     float cg_residual;
     // Inverted elements at the start of the last step.
     uint32_t inverted;
-    // Nodes held by the ground or a probe during the last step.
+    // Nodes held by the ground or a probe during the last step; for a
+    // body whose ground contact is solved whole, the nodes that end it on
+    // the plane.
     uint32_t contacts;
     // Force the body exerts on the tool (N): what a haptic device renders.
     float tool_force[3];

@@ -196,7 +196,9 @@ pub struct Stats {
     pub cg_residual: f32,
     /// Inverted elements at the start of the last step.
     pub inverted: u32,
-    /// Nodes held by the ground or a probe during the last step.
+    /// Nodes held by the ground or a probe during the last step; for a
+    /// body whose ground contact is solved whole, the nodes that end it on
+    /// the plane.
     pub contacts: u32,
     /// Force the body exerts on the tool (N): what a haptic device renders.
     pub tool_force: [f32; 3],
