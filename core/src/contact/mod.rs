@@ -398,15 +398,15 @@ pub(crate) fn detect(
 }
 
 /// Whether the ground's contact may be the whole body's
-/// ([`whole::solve`]): a ground, no probe, no fixed node, no tool, and a
-/// node the ground held last step or that a step's fall from its velocity
-/// takes to the plane.
+/// ([`whole::solve`]): a ground, no probe, no fixed node, no `tool`
+/// holding the body, and a node the ground held last step or that a
+/// step's fall from its velocity takes to the plane.
 #[cfg(feature = "ground")]
 #[inline(always)]
 pub(crate) fn whole_candidate(
     ground: Ground,
     probes: &Probes<'_>,
-    hdr: &crate::state::Header,
+    tool: bool,
     any_fixed: bool,
     nodes: &[Node],
 ) -> bool {
@@ -418,7 +418,7 @@ pub(crate) fn whole_candidate(
         return false;
     }
     let _ = probes;
-    if any_fixed || hdr.spring().active() {
+    if any_fixed || tool {
         return false;
     }
     let c = Contact::still(g);

@@ -45,7 +45,7 @@ pub(super) fn detect(
     // A body that moves as one over the step and that only the ground can
     // hold: its contact is solved whole (`contact::whole`).
     #[cfg(feature = "ground")]
-    if contact::whole_candidate(ground, probes, hdr, ctx.any_fixed, nodes) {
+    if contact::whole_candidate(ground, probes, hdr.spring().active(), ctx.any_fixed, nodes) {
         if ctx.start.is_none() {
             ctx.start = Rigid::new(nodes, true).map(|body| {
                 let ratio2 = crate::rigid::wave(&body, elems, n_elems, ctx.per_young, ctx.h);
