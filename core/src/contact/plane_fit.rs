@@ -27,20 +27,27 @@ pub(crate) struct PlaneFit {
     mass: f32,
 }
 
+/// Two orthogonal unit tangents of the plane with unit normal `n`: the
+/// coordinate axis least aligned with `n`, crossed with it, and `n` crossed
+/// with that.
+pub(crate) fn tangents(n: Vec3) -> (Vec3, Vec3) {
+    let e = if n[0].abs() <= n[1].abs() && n[0].abs() <= n[2].abs() {
+        [1.0, 0.0, 0.0]
+    } else if n[1].abs() <= n[2].abs() {
+        [0.0, 1.0, 0.0]
+    } else {
+        [0.0, 0.0, 1.0]
+    };
+    let t0 = crate::math::normalize(cross(n, e)).unwrap_or([0.0; 3]);
+    (t0, cross(n, t0))
+}
+
 impl PlaneFit {
     pub(crate) fn new(n: Vec3, c: Vec3) -> Self {
-        // The coordinate axis least aligned with `n` gives the first tangent.
-        let e = if n[0].abs() <= n[1].abs() && n[0].abs() <= n[2].abs() {
-            [1.0, 0.0, 0.0]
-        } else if n[1].abs() <= n[2].abs() {
-            [0.0, 1.0, 0.0]
-        } else {
-            [0.0, 0.0, 1.0]
-        };
-        let t0 = crate::math::normalize(cross(n, e)).unwrap_or([0.0; 3]);
+        let (t0, t1) = tangents(n);
         Self {
             n,
-            t: [t0, cross(n, t0)],
+            t: [t0, t1],
             c,
             ata: [[0.0; 3]; 3],
             atb: [0.0; 3],

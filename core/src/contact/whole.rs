@@ -3,7 +3,8 @@
 //! motion.
 
 use super::ground::{Contact, Plane};
-use crate::math::{add, axpy, cross, dot, mat_vec, normalize, scale, solve3, sub, Mat3, Vec3};
+use super::plane_fit::tangents;
+use crate::math::{add, axpy, cross, dot, mat_vec, scale, solve3, sub, Mat3, Vec3};
 use crate::rigid::{Rigid, Turn};
 use crate::storage::{Node, NodeWork};
 
@@ -93,29 +94,25 @@ pub(crate) fn solve(
     let n = g.normal;
     let (t1, t2) = tangents(n);
     let inv_mass = body.inv_mass;
-    // The impulse scale: what stops the body falling at its speed plus a
-    // step's gravity.
-    let mut speed2 = 0.0f32;
-    for w in work.iter() {
-        let v = w.end().1;
-        speed2 = speed2.max(dot(v, v));
-    }
-    let scale_impulse =
-        (crate::math::sqrt(dot(gravity, gravity)) * h + crate::math::sqrt(speed2)) / inv_mass;
-    let tol = TOLERANCE * scale_impulse;
     // Nodes that the free step ends below the plane are rows from the
-    // start; those the motion takes below join later.
-    let margin = 0.0;
+    // start; those the motion takes below join later. The same pass finds
+    // the impulse scale: what stops the body falling at its fastest node's
+    // speed plus a step's gravity.
+    let mut speed2 = 0.0f32;
     for (node, w) in nodes.iter().zip(work.iter_mut()) {
         let (u, v) = w.end();
-        let d = plane.distance(add(node.x0, u));
+        speed2 = speed2.max(dot(v, v));
         w.dv = [0.0; 3];
-        w.r = if d < margin {
-            [dot(n, v) - d / h, 1.0, mu.0]
+        let d = plane.distance(add(node.x0, u));
+        w.r = if d < 0.0 {
+            bound(n, v, d, h, mu.0)
         } else {
             [0.0; 3]
         };
     }
+    let scale_impulse =
+        (crate::math::sqrt(dot(gravity, gravity)) * h + crate::math::sqrt(speed2)) / inv_mass;
+    let tol = TOLERANCE * scale_impulse;
     let (mut dv, mut dw) = ([0.0f32; 3], [0.0f32; 3]);
     let rows = Rows {
         n,
@@ -154,9 +151,8 @@ pub(crate) fn solve(
             let (u, v) = w.end();
             let r = sub(node.position(), body.c);
             let d = plane.distance(add(node.x0, u));
-            let moved = dot(n, add(dv, cross(dw, r)));
-            if d + h * moved < 0.0 {
-                w.r = [dot(n, v) - d / h, 1.0, mu.0];
+            if d + h * dot(n, add(dv, cross(dw, r))) < 0.0 {
+                w.r = bound(n, v, d, h, mu.0);
                 w.dv = [0.0; 3];
                 joined += 1;
             }
@@ -275,6 +271,15 @@ impl Rows {
     }
 }
 
+/// The row of a node that ends the free step at distance `d` from the
+/// plane (normal `n`) with velocity `v`: the bound on its normal velocity
+/// that ends it on the plane, `n·v − d/h`, the row flag, and the friction
+/// coefficient.
+#[inline(always)]
+fn bound(n: Vec3, v: Vec3, d: f32, h: f32, mu: f32) -> [f32; 3] {
+    [dot(n, v) - d / h, 1.0, mu]
+}
+
 /// The rigid motion `(dv, dw)` after the impulse `p` at arm `r`.
 #[inline(always)]
 fn push(dv: Vec3, dw: Vec3, p: Vec3, r: Vec3, inv_mass: f32, inv_inertia: &Mat3) -> (Vec3, Vec3) {
@@ -282,20 +287,6 @@ fn push(dv: Vec3, dw: Vec3, p: Vec3, r: Vec3, inv_mass: f32, inv_inertia: &Mat3)
         axpy(dv, inv_mass, p),
         add(dw, mat_vec(inv_inertia, cross(r, p))),
     )
-}
-
-/// Two unit tangents of the plane with unit normal `n`, orthogonal.
-fn tangents(n: Vec3) -> (Vec3, Vec3) {
-    // The axis least along n, crossed with it.
-    let a = if n[0].abs() <= n[1].abs() && n[0].abs() <= n[2].abs() {
-        [1.0, 0.0, 0.0]
-    } else if n[1].abs() <= n[2].abs() {
-        [0.0, 1.0, 0.0]
-    } else {
-        [0.0, 0.0, 1.0]
-    };
-    let t1 = normalize(cross(n, a)).unwrap_or([0.0; 3]);
-    (t1, cross(n, t1))
 }
 
 /// `m⁻¹` by three solves, `None` for a singular `m`.
