@@ -121,9 +121,14 @@ fn a_block_slides_above_the_friction_angle() {
             // 1.2e-7 relative each) and of the residual remains.
             assert!(err < 1e-5, "a {a} vs {expect}");
             // The solve's residual (1e-6 of its start) is the only impulse
-            // left unreported: 2.3e-6 of m g h measured, 1e-5 allowed.
+            // left unreported (2.3e-6 of m g h), and the velocities round
+            // once more where a step gives the body the momentum of the
+            // impulses cut to the cone (`contact::spread`): the block
+            // slides rigidly, every node at the same velocity, so they
+            // round alike, by up to half an ulp of 2.36 m/s (1.2e-7 m/s,
+            // 1.2e-5 of g h). 1.3e-5 measured, 2e-5 allowed.
             assert!(
-                worst < 1e-5,
+                worst < 2e-5,
                 "momentum misses the impulses by {worst:e} of m g h"
             );
         } else {

@@ -640,7 +640,10 @@ pub(crate) fn land(
     #[cfg(feature = "ground")]
     let v = match ground.plane {
         Some(g) => {
-            let stopped = Contact::still(g).stop(add(n.x0, u), v, h);
+            let c = Contact::still(g);
+            let stopped = c.stop(add(n.x0, u), v, h);
+            #[cfg(feature = "friction")]
+            let stopped = landing_friction(&c, ground.friction, v, stopped);
             *support = axpy(*support, n.mass, sub(stopped, v));
             stopped
         }
@@ -665,15 +668,69 @@ pub(crate) fn land(
     (v, landed)
 }
 
+/// The momentum `p` that the contacts' impulses at the cone leave the body
+/// with ([`impulse`]), given to its free nodes as one velocity `p / M`, so
+/// that the body's momentum changes by the impulses the step reports; the
+/// displacements move by it over the step. Folds the new state into the
+/// finite `probe` (`math::finite_probe`).
+#[cfg(feature = "friction")]
+#[inline(always)]
+pub(crate) fn spread(p: Vec3, h: f32, nodes: &[Node], work: &mut [NodeWork], probe: f32) -> f32 {
+    let mass: f32 = nodes
+        .iter()
+        .filter(|n| n.flags & crate::storage::FIXED == 0)
+        .map(|n| n.mass)
+        .sum();
+    if !(mass > 0.0) {
+        return probe;
+    }
+    let dv = scale(p, 1.0 / mass);
+    let mut probe = probe;
+    for (n, w) in nodes.iter().zip(work.iter_mut()) {
+        if n.flags & crate::storage::FIXED != 0 {
+            continue;
+        }
+        let (u, v) = w.end();
+        let (u, v) = (axpy(u, h, dv), add(v, dv));
+        probe = crate::math::finite_probe(crate::math::finite_probe(probe, add(n.x0, u)), v);
+        w.set_end(u, v);
+    }
+    probe
+}
+
+/// The friction of a landing on the ground (`land`): the node stopped along
+/// the normal, from `v` to `stopped`, by the impulse `m Δvₙ`, also loses
+/// its velocity along the plane up to `μ Δvₙ` (per unit mass): all of it,
+/// within the static cone (it sticks), or `μk Δvₙ` of it.
+#[cfg(feature = "friction")]
+#[inline(always)]
+fn landing_friction(c: &Contact, friction: crate::Friction, v: Vec3, stopped: Vec3) -> Vec3 {
+    let press = dot(c.normal, sub(stopped, v));
+    if !(press > 0.0) {
+        return stopped;
+    }
+    let slip = c.filter(stopped);
+    let size2 = dot(slip, slip);
+    let stick = friction.static_coefficient() * press;
+    if size2 <= stick * stick {
+        return sub(stopped, slip);
+    }
+    let slide = friction.kinetic_coefficient() * press;
+    axpy(stopped, -slide / crate::math::sqrt(size2), slip)
+}
+
 /// A held node's contact impulse at the step's end (displacement `u`,
 /// velocity `v`), and its friction, which moves its velocity and position.
-/// Adds the ground's impulse to `support` and a probe's to the probe.
+/// Adds the ground's impulse to `support` and a probe's to the probe, and
+/// to `spread` the momentum that Coulomb's law at the step's end leaves
+/// the body with ([`spread`]).
 ///
 /// The constraint impulses are `−r` from the step's solve. After `relax`
 /// (which kept the step's `n·r` of held nodes in `pull`), `r` is the push's
 /// residual `r_w`: the velocity change kept, `dv − w`, has the residual of
 /// the step's less the push's (`A (dv − w) = b − r_dv + r_w`), so its
 /// impulses are the step's less the push's, which only moved positions.
+#[allow(clippy::too_many_arguments)]
 #[inline(always)]
 pub(crate) fn impulse(
     ground: Ground,
@@ -683,8 +740,9 @@ pub(crate) fn impulse(
     (u, v): (Vec3, Vec3),
     relaxed: bool,
     support: &mut Vec3,
+    spread: &mut Vec3,
 ) -> (Vec3, Vec3) {
-    let _ = (ground, &probes, n, &w, relaxed, &support);
+    let _ = (ground, &probes, n, &w, relaxed, &support, &spread);
     #[cfg(feature = "ground")]
     {
         #[allow(unused_mut)] // only friction moves them
@@ -702,7 +760,11 @@ pub(crate) fn impulse(
             let mut impulse = scale(c.normal, -kept);
             #[cfg(feature = "friction")]
             {
-                impulse = friction(&c, n, w, impulse, v, kept, relaxed, ground.h);
+                let (dv, whole);
+                (impulse, dv, whole) = friction(&c, n, w, impulse, v, kept, relaxed, ground.h);
+                v = add(v, dv);
+                u = axpy(u, ground.h, dv);
+                *spread = add(*spread, whole);
             }
             if n.contact == ON_GROUND {
                 *support = add(*support, impulse);
@@ -733,13 +795,15 @@ pub(crate) fn impulse(
 }
 
 /// Friction at a held node with the normal impulse `impulse` (`kept` along
-/// the normal) and end velocity `v`: the whole impulse, and the next step's
-/// friction planned in `reaction`. A sticking node's tangential impulse is
-/// its residual's; beyond the static cone (where the cone stage's rounds
-/// ran out) it slides from the next step, with the kinetic force along
-/// it. A sliding node's is its kinetic force's (in the solve's right-hand
-/// side); it slides on against its slip, or, turned back by its friction,
-/// sticks from the next step.
+/// the normal) and end velocity `v`: the whole impulse made Coulomb's
+/// ([`within_cone`]), the node's own velocity change, the momentum left to
+/// the body as a whole, and the next step's friction planned in
+/// `reaction`. A sticking node's tangential impulse is its residual's;
+/// beyond the static cone (where the cone stage's rounds ran out) it
+/// slides from the next step, with the kinetic force along it. A sliding
+/// node's is its kinetic force's (in the solve's right-hand side); it
+/// slides on against its slip, or, turned back by its friction, sticks
+/// from the next step.
 #[cfg(feature = "friction")]
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
@@ -752,7 +816,7 @@ fn friction(
     kept: f32,
     relaxed: bool,
     h: f32,
-) -> Vec3 {
+) -> (Vec3, Vec3, Vec3) {
     let press = -kept;
     let (tangential, next) = if n.flags & STUCK != 0 {
         let r = if relaxed { sub(w.reaction, w.r) } else { w.r };
@@ -772,7 +836,56 @@ fn friction(
         ([0.0; 3], [0.0; 3])
     };
     w.reaction = next;
-    add(impulse, tangential)
+    let (tangential, dv, whole) = within_cone(c, n, tangential, press, c.sliding(v, h));
+    // A ground contact with friction that pulls lets go within the step:
+    // the body keeps the pull it no longer gets.
+    if press < 0.0 && n.contact == ON_GROUND && c.friction.sticks() {
+        let pull = scale(c.normal, press);
+        return (add(sub(impulse, pull), tangential), dv, sub(whole, pull));
+    }
+    (add(impulse, tangential), dv, whole)
+}
+
+/// A held node's tangential impulse `t` made Coulomb's at its normal
+/// impulse `press` and its end slip `slip` (relative to the obstacle), and
+/// what that changes: `(t', Δv, Δp)`.
+///
+/// * A sticking node's within `μs press` is kept.
+/// * A sliding node's below `μk press` grows against the slip, up to
+///   `μk press` or until the slip stops: the node's velocity changes by
+///   `Δv = (t' − t) / m`, which takes no more than its slip.
+/// * One beyond the cone (`μs` for a sticking node, `μk` for a sliding one;
+///   none where the contact pulls) is cut to `μk press`: the body keeps the
+///   momentum cut, `Δp = t' − t`, which the caller spreads over it as a
+///   whole. (On the node alone, as `Δp / m`, it measured to overshoot: a
+///   soft, nearly incompressible bunny landing with friction gained energy
+///   until the step diverged.)
+///
+/// The rounds decide sticking and sliding inside the solve, with a sliding
+/// node's force from an earlier round's normal impulse; where they run
+/// out, the step still ends on Coulomb's law, with the momentum of the
+/// impulse it reports.
+#[cfg(feature = "friction")]
+#[inline(always)]
+fn within_cone(c: &Contact, n: &Node, t: Vec3, press: f32, slip: Vec3) -> (Vec3, Vec3, Vec3) {
+    let size2 = dot(t, t);
+    let press = press.max(0.0);
+    let stick = c.friction.static_coefficient() * press;
+    if n.flags & STUCK != 0 && size2 <= stick * stick || !(n.mass > 0.0) {
+        return (t, [0.0; 3], [0.0; 3]);
+    }
+    let bound = c.friction.kinetic_coefficient() * press;
+    if size2 > bound * bound {
+        let cut = scale(t, bound / crate::math::sqrt(size2));
+        return (cut, [0.0; 3], sub(cut, t));
+    }
+    let room = bound - crate::math::sqrt(size2);
+    let moving = crate::math::sqrt(dot(slip, slip)) * n.mass;
+    if !(room > 0.0 && moving > 0.0) {
+        return (t, [0.0; 3], [0.0; 3]);
+    }
+    let grown = scale(slip, -room.min(moving) / moving);
+    (axpy(t, n.mass, grown), grown, [0.0; 3])
 }
 
 /// Whether a sliding node's friction force `drag` turned it back: its slip

@@ -164,6 +164,9 @@ pub(super) fn impulses(
     let mut offsets = crate::storage::Entries::new(lists.grabs);
     let _ = lists;
     let mut landed = false;
+    // The momentum the contacts' impulses at the cone left the body with
+    // (`contact::impulse`), given to it as a whole below.
+    let mut spread = [0.0f32; 3];
     // `probe` stays zero exactly while every value checked is finite
     // (`math::finite_probe`).
     let mut probe = 0.0f32;
@@ -180,7 +183,16 @@ pub(super) fn impulses(
                 add(fixed_r, w.r)
             };
         }
-        let (u, v) = contact::impulse(ground, probes, n, w, (u, v), relaxed, &mut support);
+        let (u, v) = contact::impulse(
+            ground,
+            probes,
+            n,
+            w,
+            (u, v),
+            relaxed,
+            &mut support,
+            &mut spread,
+        );
         #[cfg(feature = "tool")]
         if spring.holds(n) {
             // The body pulls the tool with minus the spring force.
@@ -197,6 +209,10 @@ pub(super) fn impulses(
         w.set_end(u, v);
     }
     let _ = spring;
+    #[cfg(feature = "friction")]
+    if spread != [0.0; 3] {
+        probe = contact::spread(spread, ctx.h, nodes, work, probe);
+    }
     let support = sub(support, fixed_r);
     probe = finite_probe(finite_probe(probe, tool), support);
     probe = contact::finite(probes, probe);
