@@ -19,7 +19,8 @@
 //!
 //! Settings other than the defaults, for comparisons: `SLOPES_ROUNDS`
 //! (`contact_rounds`), `SLOPES_CG` (`cg_iterations`, with `cg_tolerance`
-//! 1e-6), `SLOPES_KINETIC` (a kinetic coefficient below μ);
+//! 1e-6), `SLOPES_KINETIC` (a kinetic coefficient below μ), `SLOPES_DAMP`
+//! (`rayleigh_stiffness`, s);
 //! `SLOPES_TRACE=1` prints the steps of `--one` (`SLOPES_TRACE=all`: every
 //! step).
 
@@ -82,6 +83,10 @@ fn run(c: &Case) -> Row {
             } else {
                 defaults.cg_tolerance
             },
+            rayleigh_stiffness: std::env::var("SLOPES_DAMP")
+                .ok()
+                .and_then(|v| v.parse().ok())
+                .unwrap_or(defaults.rayleigh_stiffness),
             contact_rounds: std::env::var("SLOPES_ROUNDS")
                 .ok()
                 .and_then(|v| v.parse().ok())
