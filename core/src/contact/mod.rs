@@ -40,6 +40,8 @@ mod relax;
 #[cfg(feature = "ground")]
 pub(crate) mod whole;
 
+#[cfg(feature = "friction")]
+use crate::math::finite_probe;
 use crate::math::Vec3;
 #[cfg(feature = "ground")]
 use crate::math::{add, axpy, dot, scale, sub};
@@ -678,7 +680,7 @@ pub(crate) fn land(
 pub(crate) fn spread(p: Vec3, h: f32, nodes: &[Node], work: &mut [NodeWork], probe: f32) -> f32 {
     let mass: f32 = nodes
         .iter()
-        .filter(|n| n.flags & crate::storage::FIXED == 0)
+        .filter(|n| n.flags & FIXED == 0)
         .map(|n| n.mass)
         .sum();
     if !(mass > 0.0) {
@@ -687,12 +689,12 @@ pub(crate) fn spread(p: Vec3, h: f32, nodes: &[Node], work: &mut [NodeWork], pro
     let dv = scale(p, 1.0 / mass);
     let mut probe = probe;
     for (n, w) in nodes.iter().zip(work.iter_mut()) {
-        if n.flags & crate::storage::FIXED != 0 {
+        if n.flags & FIXED != 0 {
             continue;
         }
         let (u, v) = w.end();
         let (u, v) = (axpy(u, h, dv), add(v, dv));
-        probe = crate::math::finite_probe(crate::math::finite_probe(probe, add(n.x0, u)), v);
+        probe = finite_probe(finite_probe(probe, add(n.x0, u)), v);
         w.set_end(u, v);
     }
     probe
@@ -836,9 +838,11 @@ fn friction(
         ([0.0; 3], [0.0; 3])
     };
     w.reaction = next;
-    let (tangential, dv, whole) = within_cone(c, n, tangential, press, c.sliding(v, h));
+    let (tangential, dv, whole) = within_cone(c, n, tangential, press, v, h);
     // A ground contact with friction that pulls lets go within the step:
-    // the body keeps the pull it no longer gets.
+    // the body keeps the pull it no longer gets. Only there does a cone
+    // depend on it; a probe's or a frictionless ground's pulling contact
+    // lets go from the next step (`commit`).
     if press < 0.0 && n.contact == ON_GROUND && c.friction.sticks() {
         let pull = scale(c.normal, press);
         return (add(sub(impulse, pull), tangential), dv, sub(whole, pull));
@@ -847,8 +851,9 @@ fn friction(
 }
 
 /// A held node's tangential impulse `t` made Coulomb's at its normal
-/// impulse `press` and its end slip `slip` (relative to the obstacle), and
-/// what that changes: `(t', Δv, Δp)`.
+/// impulse `press` and its end slip (relative to the obstacle, from its
+/// end velocity `v` over the step `h`), and what that changes:
+/// `(t', Δv, Δp)`.
 ///
 /// * A sticking node's within `μs press` is kept.
 /// * A sliding node's below `μk press` grows against the slip, up to
@@ -867,7 +872,7 @@ fn friction(
 /// impulse it reports.
 #[cfg(feature = "friction")]
 #[inline(always)]
-fn within_cone(c: &Contact, n: &Node, t: Vec3, press: f32, slip: Vec3) -> (Vec3, Vec3, Vec3) {
+fn within_cone(c: &Contact, n: &Node, t: Vec3, press: f32, v: Vec3, h: f32) -> (Vec3, Vec3, Vec3) {
     let size2 = dot(t, t);
     let press = press.max(0.0);
     let stick = c.friction.static_coefficient() * press;
@@ -880,6 +885,7 @@ fn within_cone(c: &Contact, n: &Node, t: Vec3, press: f32, slip: Vec3) -> (Vec3,
         return (cut, [0.0; 3], sub(cut, t));
     }
     let room = bound - crate::math::sqrt(size2);
+    let slip = c.sliding(v, h);
     let moving = crate::math::sqrt(dot(slip, slip)) * n.mass;
     if !(room > 0.0 && moving > 0.0) {
         return (t, [0.0; 3], [0.0; 3]);
