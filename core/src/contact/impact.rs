@@ -36,6 +36,10 @@ const HELD: f32 = 1e4;
 ///   pressing, which the elastic solve carries, not an impact: the lift's
 ///   potential energy `−h s Σ m g·Δ` counts too, which moves `v` to
 ///   `v − h g` in the sum.
+/// * **Only a push.** A motion whose momentum points into the ground
+///   (`Σ m Δ·n ≤ 0`: a fit that stops an arriving edge by turning the body
+///   about it while its centre moves down) is no impulse the ground can
+///   give: then there is no rigid stop, and each node is stopped alone.
 /// * **Where.** It is added to the step's velocity change, so the
 ///   displacement moves by the motion over the step (`u' = u + h v'`): the
 ///   translation `h s a n` and the rotation by `h s θ` about the centre of
@@ -102,16 +106,18 @@ pub(crate) fn impact(
     let settle = if resting { scale(gravity, h) } else { [0.0; 3] };
     // The line search's sums, and the centre of mass at the step's end.
     let (mut along, mut norm2, mut mc) = (0.0f32, 0.0f32, [0.0f32; 3]);
+    let mut pushes = 0.0f32;
     for (n, w) in nodes.iter().zip(work.iter()) {
         let dv = stop.at(n.position(), m);
         let (u, v) = w.end();
         along += n.mass * dot(sub(v, settle), dv);
         norm2 += n.mass * dot(dv, dv);
+        pushes += n.mass * dot(g.normal, dv);
         mc = axpy(mc, n.mass, add(n.x0, u));
     }
     // The share takes a pass over the elements: only for an impact.
     let s = -along / norm2;
-    if !(s > 0.0 && s.is_finite()) {
+    if !(s > 0.0 && s.is_finite() && pushes > 0.0) {
         return [0.0; 3];
     }
     let s = s.min(share(body));

@@ -184,9 +184,13 @@ pub(crate) fn solve(
             impulse = add(impulse, w.dv);
             // On the plane: pressed, or left there by the motion (a flat
             // face's nodes share its weight in any of many ways; those
-            // given none still touch).
+            // given none still touch). The sweeps stop with each row's
+            // impulse known to `tol`, so its end to `h tol` times its
+            // response: a gap within that, or within the position's
+            // rounding, touches.
             let gap = h * (dot(n, v2) - w.r[0]);
-            if dot(n, w.dv) > 0.0 || gap <= g.rounding(add(node.x0, u)) {
+            let known = h * tol * rows.response(r, n);
+            if dot(n, w.dv) > 0.0 || gap <= g.rounding(add(node.x0, u)) + known {
                 w.r[1] = TOUCHING;
                 pressed += 1;
             }
