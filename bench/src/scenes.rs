@@ -184,6 +184,7 @@ impl SceneDef {
                 // As in a default scene.
                 energy_guard: true,
                 free_rotation: true,
+                friction_damping: Settings::new().friction_damping,
                 contact_rounds: Settings::new().contact_rounds,
             })
             .expect("settings");

@@ -207,6 +207,11 @@ typedef struct {
     // step's CG budget per round). 0: one solve, the state decided after
     // the last step. Default 4.
     uint32_t contact_rounds;
+    // The stiffness-proportional damping (s, ≥ 0) a body has while the
+    // ground has friction: the step damps with the larger of it and
+    // `rayleigh_stiffness`. An undamped elastic body under Coulomb
+    // friction flutters at large μ. 0: undamped. Default 0.003.
+    float friction_damping;
 } corofem_settings;
 
 // What the last step did.

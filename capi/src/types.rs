@@ -141,6 +141,11 @@ pub struct Settings {
     /// step's CG budget per round). 0: one solve, the state decided after
     /// the last step. Default 4.
     pub contact_rounds: u32,
+    /// The stiffness-proportional damping (s, ≥ 0) a body has while the
+    /// ground has friction: the step damps with the larger of it and
+    /// `rayleigh_stiffness`. An undamped elastic body under Coulomb
+    /// friction flutters at large μ. 0: undamped. Default 0.003.
+    pub friction_damping: f32,
 }
 
 impl Settings {
@@ -160,6 +165,7 @@ impl Settings {
             energy_guard: u32::from(s.energy_guard),
             free_rotation: u32::from(s.free_rotation),
             contact_rounds: s.contact_rounds,
+            friction_damping: s.friction_damping,
         }
     }
 
@@ -178,6 +184,7 @@ impl Settings {
             energy_guard: self.energy_guard != 0,
             free_rotation: self.free_rotation != 0,
             contact_rounds: self.contact_rounds,
+            friction_damping: self.friction_damping,
         })
     }
 }

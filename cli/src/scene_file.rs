@@ -83,6 +83,7 @@ struct RawSolver {
     cg_tolerance: Option<f64>,
     rayleigh_mass: Option<f64>,
     rayleigh_stiffness: Option<f64>,
+    friction_damping: Option<f64>,
     #[serde(rename = "static")]
     static_solve: Option<bool>,
     warm_start: Option<bool>,
@@ -367,7 +368,7 @@ pub fn keys() -> Vec<KeyDoc> {
     let v = |x: f32| format!("{:?}", x.to_string().parse::<f64>().unwrap_or(0.0));
     let g = d.gravity;
     #[rustfmt::skip]
-    let rows: [(&'static str, &'static str, String, &'static str); 58] = [
+    let rows: [(&'static str, &'static str, String, &'static str); 59] = [
         ("[mesh]", "file", "required, or generator".into(), "mesh file: .tetmesh, Gmsh .msh (v2, v4), .vtk, .vtu"),
         ("[mesh]", "generator", "none".into(), "\"box\": a box split into tetrahedra, instead of file"),
         ("[mesh]", "size", "required with generator".into(), "[x, y, z]: the box's size (m)"),
@@ -385,6 +386,7 @@ pub fn keys() -> Vec<KeyDoc> {
         ("[solver]", "cg_tolerance", format!("{} ({} static)", v(d.cg_tolerance), v(st.cg_tolerance)), "relative residual at which CG stops early; 0: never"),
         ("[solver]", "rayleigh_mass", v(d.rayleigh_mass), "damping C = rayleigh_mass M + rayleigh_stiffness K (1/s)"),
         ("[solver]", "rayleigh_stiffness", v(d.rayleigh_stiffness), "stiffness damping (s)"),
+        ("[solver]", "friction_damping", v(d.friction_damping), "stiffness damping at least, on a ground with friction (s)"),
         ("[solver]", "static", "false".into(), "true: solve for static equilibrium instead of stepping"),
         ("[solver]", "warm_start", format!("{} ({} with \"mass\")", d.warm_start, mass.warm_start), "start CG from the last step's solution"),
         ("[solver]", "energy_guard", d.energy_guard.to_string(), "take out energy that inverted elements made"),
@@ -1085,6 +1087,16 @@ impl Ctx<'_> {
                 "rayleigh_stiffness >= 0 (s)",
             )?,
         };
+        let friction_damping = match s.friction_damping {
+            None => d.friction_damping,
+            Some(x) => self.real(
+                S,
+                "friction_damping",
+                x,
+                |x| x >= 0.0,
+                "friction_damping >= 0 (s)",
+            )?,
+        };
         let gravity = match w.gravity {
             None => d.gravity,
             Some(g) => self.vec3("[world]", "gravity", g)?,
@@ -1104,6 +1116,7 @@ impl Ctx<'_> {
             },
             rayleigh_mass,
             rayleigh_stiffness,
+            friction_damping,
             warm_start: s.warm_start.unwrap_or(d.warm_start),
             energy_guard: s.energy_guard.unwrap_or(d.energy_guard),
             free_rotation: s.free_rotation.unwrap_or(d.free_rotation),

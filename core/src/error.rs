@@ -327,6 +327,8 @@ pub enum Parameter {
     SurfaceOut,
     /// `Settings::free_rotation`.
     FreeRotation,
+    /// `Settings::friction_damping`.
+    FrictionDamping,
 }
 
 impl fmt::Display for Parameter {
@@ -346,6 +348,7 @@ impl fmt::Display for Parameter {
             Parameter::CgTolerance => "`cg_tolerance`: it must be finite and ≥ 0",
             Parameter::RayleighMass => "`rayleigh_mass`: it must be finite and ≥ 0 1/s",
             Parameter::RayleighStiffness => "`rayleigh_stiffness`: it must be finite and ≥ 0 s",
+            Parameter::FrictionDamping => "`friction_damping`: it must be finite and ≥ 0 s",
             Parameter::Gravity => "`gravity`: it must be finite (m/s²)",
             Parameter::Force => "force: it must be finite (N)",
             Parameter::Positions => {

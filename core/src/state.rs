@@ -153,6 +153,19 @@ impl Header {
         self.settings_valid = true;
     }
 
+    /// The stiffness-proportional damping the step uses (s):
+    /// [`Settings::friction_damping`](crate::Settings::friction_damping)
+    /// at least, while the ground has friction.
+    #[inline(always)]
+    pub(crate) fn stiffness_damping(&self) -> f32 {
+        let s = &self.settings;
+        #[cfg(feature = "friction")]
+        if self.ground.is_some() && self.ground_friction.sticks() {
+            return s.rayleigh_stiffness.max(s.friction_damping);
+        }
+        s.rayleigh_stiffness
+    }
+
     /// Forgets the preconditioner's aggregates and coarse factor: the next
     /// step prepares them again.
     #[inline(always)]

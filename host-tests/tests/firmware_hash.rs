@@ -114,7 +114,7 @@ fn firmware_scene_in_contact_golden_hashes() {
     let golden = [
         (ContactSet::GROUND, 0x4ad0_b5a8_7475_d643),
         (ContactSet::PROBE, 0xb443_086f_06ed_3f02),
-        (ContactSet::PROBE_FRICTION, 0xa5ca_6735_9209_8063),
+        (ContactSet::PROBE_FRICTION, 0x682d_7c2c_0e88_7516),
     ];
     for (set, want) in golden {
         let (out, _) = run_contact(set);

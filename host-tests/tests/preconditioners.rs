@@ -35,6 +35,7 @@ fn hanging(mesh: &CoreMesh, pre: Preconditioner, cg_iterations: u32, warm: bool)
         gravity: [0.0, -9.81, 0.0],
         energy_guard: true,
         free_rotation: true,
+        friction_damping: Settings::new().friction_damping,
         contact_rounds: Settings::new().contact_rounds,
     })
     .unwrap();

@@ -429,8 +429,13 @@ impl<S: Storage> Scene<S> {
             settings.dt,
             settings.rayleigh_mass,
             settings.rayleigh_stiffness,
-        ) != (old.dt, old.rayleigh_mass, old.rayleigh_stiffness)
-            || settings.preconditioner != old.preconditioner
+            settings.friction_damping,
+        ) != (
+            old.dt,
+            old.rayleigh_mass,
+            old.rayleigh_stiffness,
+            old.friction_damping,
+        ) || settings.preconditioner != old.preconditioner
         {
             self.hdr.invalidate_coarse();
         }
@@ -1248,7 +1253,7 @@ mod tests {
         let s = h.settings;
         let floats = [h.poisson, h.density, s.dt, s.cg_tolerance]
             .into_iter()
-            .chain([s.rayleigh_mass, s.rayleigh_stiffness])
+            .chain([s.rayleigh_mass, s.rayleigh_stiffness, s.friction_damping])
             .chain(s.gravity);
         assert!(floats.map(f32::to_bits).all(|b| b == 0));
         assert_eq!(

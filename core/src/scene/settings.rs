@@ -30,6 +30,9 @@ impl Settings {
         if !(self.rayleigh_stiffness >= 0.0 && self.rayleigh_stiffness.is_finite()) {
             return bad(Parameter::RayleighStiffness);
         }
+        if !(self.friction_damping >= 0.0 && self.friction_damping.is_finite()) {
+            return bad(Parameter::FrictionDamping);
+        }
         if !is_finite3(self.gravity) {
             return bad(Parameter::Gravity);
         }

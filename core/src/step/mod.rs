@@ -151,7 +151,7 @@ impl Ctx {
             s,
             h,
             mass_coef,
-            k_coef: h * (s.rayleigh_stiffness + h),
+            k_coef: h * (hdr.stiffness_damping() + h),
             per_young: hdr.per_young(),
             any_fixed: hdr.any_fixed,
             fall: if hdr.any_fixed {

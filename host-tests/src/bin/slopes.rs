@@ -20,9 +20,14 @@
 //! Settings other than the defaults, for comparisons: `SLOPES_ROUNDS`
 //! (`contact_rounds`), `SLOPES_CG` (`cg_iterations`, with `cg_tolerance`
 //! 1e-6), `SLOPES_KINETIC` (a kinetic coefficient below μ), `SLOPES_DAMP`
-//! (`rayleigh_stiffness`, s);
+//! (`rayleigh_stiffness`, s), `SLOPES_FRICTION_DAMPING` (`friction_damping`,
+//! s), `SLOPES_POISSON` (ν, default 0.3);
 //! `SLOPES_TRACE=1` prints the steps of `--one` (`SLOPES_TRACE=all`: every
-//! step).
+//! step); `SLOPES_AUDIT=1` prints the energy budget (kinetic, elastic,
+//! gravity's potential) of every step that gains energy (every step with
+//! `SLOPES_TRACE=all`), and the centre's normal and tangential velocity at
+//! the run's half and end; `SLOPES_CELLS=NX,NY,NZ` meshes `--one`'s block
+//! with other cells.
 
 use corofem::{Friction, Material, Plane, Settings};
 use corofem_host_tests::{box_mesh, centre};
@@ -59,7 +64,10 @@ fn run(c: &Case) -> Row {
     let mesh = box_mesh(c.size, c.cells, c.tets);
     let mut scene = mesh.scene(&Material {
         young: c.young,
-        poisson: 0.3,
+        poisson: std::env::var("SLOPES_POISSON")
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(0.3),
         density: 1000.0,
     });
     scene.set_ground(Some(Plane::Z_UP)).unwrap();
@@ -87,6 +95,10 @@ fn run(c: &Case) -> Row {
                 .ok()
                 .and_then(|v| v.parse().ok())
                 .unwrap_or(defaults.rayleigh_stiffness),
+            friction_damping: std::env::var("SLOPES_FRICTION_DAMPING")
+                .ok()
+                .and_then(|v| v.parse().ok())
+                .unwrap_or(defaults.friction_damping),
             contact_rounds: std::env::var("SLOPES_ROUNDS")
                 .ok()
                 .and_then(|v| v.parse().ok())
@@ -106,6 +118,19 @@ fn run(c: &Case) -> Row {
     let trace = std::env::var_os("SLOPES_TRACE").is_some();
     let every = std::env::var_os("SLOPES_TRACE").is_some_and(|v| v == "all");
     let mut diverged = None;
+    let gvec = [G * theta.sin(), 0.0, -G * theta.cos()];
+    let energy = |scene: &mut corofem::VecScene| {
+        let (m, x, _) = centre(scene);
+        let pot = -m * (gvec[0] * x[0] + gvec[2] * x[2]);
+        (
+            f64::from(scene.kinetic_energy()),
+            f64::from(scene.elastic_energy()),
+            pot,
+        )
+    };
+    let audit = std::env::var_os("SLOPES_AUDIT").is_some();
+    let mut e_prev = energy(&mut scene);
+    let (mut gained, mut gain_steps) = (0.0f64, 0u32);
     for k in 1..=steps {
         let v_before = centre(&scene).2;
         let s = match scene.step() {
@@ -130,6 +155,21 @@ fn run(c: &Case) -> Row {
                 (weight / G) * (v[0] - v_before[0]) / f64::from(c.dt) - (weight * theta.sin() + f[0])
             );
         }
+        if audit {
+            let e = energy(&mut scene);
+            let d = (e.0 + e.1 + e.2) - (e_prev.0 + e_prev.1 + e_prev.2);
+            if d > 0.0 {
+                gained += d;
+                gain_steps += 1;
+            }
+            if every || d > 1e-7 {
+                eprintln!(
+                    "audit {k:4} contacts {:3} kin {:.3e} ela {:.3e} pot {:.4e} dE {:+.3e} sn {:.4}",
+                    s.contacts, e.0, e.1, e.2, d, s.support_force[2]
+                );
+            }
+            e_prev = e;
+        }
         inverted = inverted.max(s.inverted);
         cg += u64::from(s.cg_iterations);
         let f = s.support_force.map(f64::from);
@@ -140,12 +180,26 @@ fn run(c: &Case) -> Row {
             cone = cone.max(tangent / (mu * normal));
         } else if tangent > 1e-6 * weight {
             alone += 1;
+            if trace {
+                eprintln!("alone at step {k}: contacts {} n {normal:.3e} t {tangent:.3e} weight {weight:.3}", s.contacts);
+            }
         }
         if k == steps / 2 {
             let (_, x, v) = centre(&scene);
             v_half = v[0];
+            if audit {
+                eprintln!("half vn {:.5} vx {:.5}", v[2], v[0]);
+            }
             x_half = x[0];
         }
+    }
+    if audit {
+        eprintln!(
+            "end vn {:.5} vx {:.5}",
+            centre(&scene).2[2],
+            centre(&scene).2[0]
+        );
+        eprintln!("audit: energy gained {gained:.3e} J in {gain_steps} steps");
     }
     let (_, x1, v1) = centre(&scene);
     Row {
@@ -174,6 +228,13 @@ fn main() {
             (_, true) => ([0.02, 0.02, 0.04], [2, 2, 4]),
             _ => ([0.04, 0.04, 0.02], [4, 4, 2]),
         };
+        let cells = std::env::var("SLOPES_CELLS").ok().map_or(cells, |v| {
+            let n: Vec<u32> = v
+                .split(',')
+                .map(|x| x.parse().expect("SLOPES_CELLS=NX,NY,NZ"))
+                .collect();
+            n.try_into().expect("SLOPES_CELLS=NX,NY,NZ: three counts")
+        });
         let c = Case {
             size,
             cells,
@@ -189,8 +250,9 @@ fn main() {
         };
         let r = run(&c);
         println!(
-            "slid {:.4} coulomb {:.4} accel {:.4} expect {:.4} cone {:.3} alone {} inverted {} cg {:.1}{}",
+            "slid {:.4} late {:.2e} coulomb {:.4} accel {:.4} expect {:.4} cone {:.3} alone {} inverted {} cg {:.1}{}",
             r.slid,
+            r.late,
             r.expect,
             r.accel,
             r.expect_accel,
