@@ -112,6 +112,11 @@ pub fn settings(u: &mut Unstructured) -> Result<Settings> {
     let energy_guard = u.arbitrary()?;
     let free_rotation = u.arbitrary()?;
     let contact_rounds = u32::from(u.int_in_range(0u8..=8)?);
+    let friction_damping = if u.arbitrary()? {
+        damping(u)?
+    } else {
+        Settings::new().friction_damping
+    };
     Ok(Settings {
         method,
         dt,
@@ -125,6 +130,7 @@ pub fn settings(u: &mut Unstructured) -> Result<Settings> {
         energy_guard,
         free_rotation,
         contact_rounds,
+        friction_damping,
     })
 }
 
