@@ -165,6 +165,17 @@ crate::backend::isa_inline!(
                     if scalar_norm {
                         next = pre(work);
                     }
+                    // A preconditioned residual `rᵀ P⁻¹ r` that rounds to
+                    // zero (or below) while the scalar norm `rm` is still
+                    // above the floor: the preconditioner has resolved all
+                    // it can, and `β = next / rz` would divide by it next
+                    // time (0/0 once it is zero). Stop: the iterate is the
+                    // solve's best, and the certificate or the Galerkin step
+                    // decides what it is worth. `rz > 0` then holds for
+                    // every division.
+                    if !(next > 0.0) {
+                        break;
+                    }
                     let beta = next / rz;
                     rz = next;
                     for w in work.iter_mut() {
