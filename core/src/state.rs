@@ -153,17 +153,33 @@ impl Header {
         self.settings_valid = true;
     }
 
-    /// The stiffness-proportional damping the step uses (s):
+    /// The coefficients of the step's system `A = mass_coef M + k_coef K`:
+    /// `1 + h α_M` and `h (α_K + h)`, with the stiffness damping `α_K`
     /// [`Settings::friction_damping`](crate::Settings::friction_damping)
-    /// at least, while the ground has friction.
+    /// at least while the ground has friction. The coarse factor is built
+    /// with them: whatever changes them makes it again.
     #[inline(always)]
-    pub(crate) fn stiffness_damping(&self) -> f32 {
+    pub(crate) fn coefficients(&self) -> (f32, f32) {
         let s = &self.settings;
+        let h = s.dt;
+        #[allow(unused_mut)] // raised only with friction
+        let mut damping = s.rayleigh_stiffness;
         #[cfg(feature = "friction")]
         if self.ground.is_some() && self.ground_friction.sticks() {
-            return s.rayleigh_stiffness.max(s.friction_damping);
+            damping = damping.max(s.friction_damping);
         }
-        s.rayleigh_stiffness
+        (1.0 + h * s.rayleigh_mass, h * (damping + h))
+    }
+
+    /// Forgets the coarse factor where the system's
+    /// [`coefficients`](Self::coefficients) are no longer `before`, the
+    /// ones it may have been built with.
+    #[inline(always)]
+    pub(crate) fn coefficients_changed(&mut self, before: (f32, f32)) {
+        let after = self.coefficients();
+        if (after.0.to_bits(), after.1.to_bits()) != (before.0.to_bits(), before.1.to_bits()) {
+            self.invalidate_coarse();
+        }
     }
 
     /// Forgets the preconditioner's aggregates and coarse factor: the next

@@ -189,8 +189,9 @@ pub(crate) fn solve(
             // response: a gap within that, or within the position's
             // rounding, touches.
             let gap = h * (dot(n, v2) - w.r[0]);
-            let known = h * tol * rows.response(r, n);
-            if dot(n, w.dv) > 0.0 || gap <= g.rounding(add(node.x0, u)) + known {
+            if dot(n, w.dv) > 0.0
+                || gap <= g.rounding(add(node.x0, u)) + h * tol * rows.response(r, n)
+            {
                 w.r[1] = TOUCHING;
                 pressed += 1;
             }

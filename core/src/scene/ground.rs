@@ -17,26 +17,17 @@ impl<S: crate::Storage> crate::Scene<S> {
     /// [`unfix_all`](Self::unfix_all)). Nodes the steps themselves take
     /// below it, landing, are pushed out.
     pub fn set_ground(&mut self, plane: Option<Plane>) -> Result<(), crate::Error> {
-        let damping = self.hdr.stiffness_damping();
+        let before = self.hdr.coefficients();
         self.hdr.ground = match plane {
             Some(p) => Some(p.normalized().ok_or(crate::Error::InvalidParameter {
                 parameter: Parameter::Ground,
             })?),
             None => None,
         };
-        self.damping_changed(damping);
+        self.hdr.coefficients_changed(before);
         self.hdr.forget_energy();
         self.hdr.placed();
         Ok(())
-    }
-
-    /// The step's damping depends on whether a ground with friction holds
-    /// the body (`Header::stiffness_damping`), and the coarse factor is
-    /// built with it: one built with another damping is built again.
-    fn damping_changed(&mut self, before: f32) {
-        if self.hdr.stiffness_damping().to_bits() != before.to_bits() {
-            self.hdr.invalidate_coarse();
-        }
     }
 
     /// Refuses a step that would start with a free node below the ground,
@@ -74,10 +65,10 @@ impl<S: crate::Storage> crate::Scene<S> {
     /// coefficients hold them.
     #[cfg(feature = "friction")]
     pub fn set_ground_friction(&mut self, friction: Friction) {
-        let damping = self.hdr.stiffness_damping();
+        let before = self.hdr.coefficients();
         self.hdr.ground_friction = friction;
         self.hdr.forget_energy();
-        self.damping_changed(damping);
+        self.hdr.coefficients_changed(before);
     }
 
     /// The friction between the body and the ground.

@@ -422,21 +422,10 @@ impl<S: Storage> Scene<S> {
             });
         }
         // The coarse factor depends on the system matrix's coefficients
-        // (dt, damping) and on the preconditioner; gravity, the budget or
-        // the warm start leave it valid.
-        let old = self.settings();
-        if (
-            settings.dt,
-            settings.rayleigh_mass,
-            settings.rayleigh_stiffness,
-            settings.friction_damping,
-        ) != (
-            old.dt,
-            old.rayleigh_mass,
-            old.rayleigh_stiffness,
-            old.friction_damping,
-        ) || settings.preconditioner != old.preconditioner
-        {
+        // (`Header::coefficients`: dt, damping) and on the preconditioner;
+        // gravity, the budget or the warm start leave it valid.
+        let before = self.hdr.coefficients();
+        if settings.preconditioner != self.settings().preconditioner {
             self.hdr.invalidate_coarse();
         }
         #[cfg(feature = "polar")]
@@ -447,6 +436,7 @@ impl<S: Storage> Scene<S> {
         }
         self.hdr.settings = settings;
         self.hdr.settings_valid = true;
+        self.hdr.coefficients_changed(before);
         self.hdr.forget_energy();
         Ok(())
     }

@@ -146,12 +146,12 @@ impl Ctx {
     fn new(hdr: &Header) -> Self {
         let s = hdr.settings;
         let h = s.dt;
-        let mass_coef = 1.0 + h * s.rayleigh_mass;
+        let (mass_coef, k_coef) = hdr.coefficients();
         Self {
             s,
             h,
             mass_coef,
-            k_coef: h * (hdr.stiffness_damping() + h),
+            k_coef,
             per_young: hdr.per_young(),
             any_fixed: hdr.any_fixed,
             fall: if hdr.any_fixed {
